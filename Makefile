@@ -1,0 +1,35 @@
+# Two commands on a fresh clone:  `make demo`  and  `make test`.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: demo test lint demo-data bench clean
+
+$(STAMP): pyproject.toml constraints.txt
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev]'
+	touch $(STAMP)
+
+## demo: set up .venv and run the main job on the shipped demo data
+demo: $(STAMP)
+	$(BIN)/hmid summary configs/demo.yaml
+
+## test: set up .venv and run the test suite
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+lint: $(STAMP)
+	$(BIN)/ruff check hmid tests benchmarks pipelines
+	$(BIN)/ruff format --check hmid tests benchmarks pipelines
+
+## demo-data: regenerate data/demo/ from configs/simulate/demo.yaml (fixed seeds)
+demo-data: $(STAMP)
+	$(BIN)/hmid simulate configs/simulate/demo.yaml --out data/demo --replace
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/run.py
+
+clean:
+	rm -rf $(VENV)

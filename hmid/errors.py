@@ -1,0 +1,46 @@
+"""hmid's exceptions and warnings.
+
+Every error hmid raises on bad input is one line that names the file, the column or key (and the
+row where relevant) and says how to fix it. Callers catch :class:`HmidError` to tell hmid's own
+clear errors from bugs.
+"""
+
+from __future__ import annotations
+
+
+class HmidError(Exception):
+    """Base class of every error hmid raises deliberately."""
+
+
+class LogError(HmidError, ValueError):
+    """A log file or table is malformed (missing column, NaN, bad time base, ...)."""
+
+
+class UnitError(LogError):
+    """A unit is unknown or has the wrong dimension for its channel."""
+
+
+class ConfigError(HmidError, ValueError):
+    """A configuration file or object is invalid (unknown key, wrong type, impossible value)."""
+
+
+class SignalError(HmidError, ValueError):
+    """A signal cannot be processed as asked (window longer than the log, non-finite input)."""
+
+
+class SimulationError(HmidError, RuntimeError):
+    """A simulation left the model's domain of validity (e.g. the rig's string went slack)."""
+
+
+class HmidWarning(UserWarning):
+    """Something the user should see but that does not stop the work (e.g. ADC saturation)."""
+
+
+def where(source: str | None, column: str | None = None, row: int | None = None) -> str:
+    """Prefix ``"file: column 'c' row r: "`` for one-line messages; parts that are None are left out."""
+    parts = [source or "<table>"]
+    if column is not None:
+        parts.append(f"column {column!r}")
+    if row is not None:
+        parts.append(f"row {row}")
+    return " ".join(parts[:1]) + (": " + " ".join(parts[1:]) if len(parts) > 1 else "") + ": "

@@ -1,0 +1,117 @@
+"""The experiment config: which logs, read how, on which rig, processed with which strategies.
+
+Paths in the config are relative to the config file's folder. Later stages (friction, model
+families, comparison) add their own sections here as typed models.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from hmid.config import load_yaml_model
+from hmid.errors import ConfigError
+from hmid.io.log import RigConstants
+from hmid.signal import (
+    Differentiator,
+    MovingAverage,
+    SavitzkyGolay,
+    SmoothedFiniteDifference,
+    Smoother,
+    Window,
+)
+
+Positive = Annotated[float, Field(gt=0)]
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class RigSection(_Frozen):
+    """Rig constants of thesis Ch. 4 (SI units)."""
+
+    M: Positive  # kg, block + force plate
+    m1: Positive  # kg, hanging mass
+    g: Positive = 9.80665
+
+    def constants(self) -> RigConstants:
+        return RigConstants(M=self.M, m1=self.m1, g=self.g)
+
+
+class LogEntry(_Frozen):
+    """One log file, the column map that reads it, and its role in the experiment."""
+
+    path: Path
+    columns: Path
+    role: Literal["dynamic", "free_fall"]
+
+
+class MovingAverageSpec(_Frozen):
+    """Moving-average smoother of P, x and F; the window in seconds is resolved per log."""
+
+    kind: Literal["moving_average"] = "moving_average"
+    window_s: Positive = 0.01
+    mode: Literal["centred", "causal"] = "centred"
+
+    def build(self) -> Smoother:
+        return MovingAverage(Window(seconds=self.window_s), mode=self.mode, edge="shrink")
+
+
+class SavitzkyGolaySpec(_Frozen):
+    kind: Literal["savitzky_golay"] = "savitzky_golay"
+    window_s: Positive = 0.05
+    polyorder: Annotated[int, Field(ge=2, le=7)] = 3
+
+    def build(self) -> Differentiator:
+        return SavitzkyGolay(Window(seconds=self.window_s), polyorder=self.polyorder)
+
+
+class SmoothedDifferenceSpec(_Frozen):
+    kind: Literal["smoothed_difference"] = "smoothed_difference"
+    window_s: Positive = 0.03
+
+    def build(self) -> Differentiator:
+        return SmoothedFiniteDifference(MovingAverage(Window(seconds=self.window_s)))
+
+
+class DenoiseSection(_Frozen):
+    """How signals are smoothed and how velocity and acceleration are estimated from x."""
+
+    smoother: MovingAverageSpec = MovingAverageSpec()
+    derivative: Annotated[
+        SavitzkyGolaySpec | SmoothedDifferenceSpec, Field(discriminator="kind")
+    ] = SavitzkyGolaySpec()
+
+
+class ExperimentConfig(_Frozen):
+    """A whole experiment; ``base_dir`` (the config's folder) anchors relative paths."""
+
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")]
+    seed: int
+    rig: RigSection
+    logs: Annotated[tuple[LogEntry, ...], Field(min_length=1)]
+    denoise: DenoiseSection = DenoiseSection()
+    base_dir: Path = Path(".")
+
+    def resolve(self, path: Path) -> Path:
+        return path if path.is_absolute() else Path(os.path.normpath(self.base_dir / path))
+
+
+def load_experiment(path: str | Path) -> ExperimentConfig:
+    """Read and validate an experiment config; every listed file must exist."""
+    path = Path(path)
+    config = load_yaml_model(path, ExperimentConfig)
+    config = config.model_copy(update={"base_dir": path.parent})
+    for i, entry in enumerate(config.logs):
+        for key in ("path", "columns"):
+            target = config.resolve(getattr(entry, key))
+            if not target.is_file():
+                raise ConfigError(
+                    f"{path}: key 'logs.{i}.{key}': file {target} does not exist "
+                    f"(paths are relative to the config's folder {path.parent})"
+                )
+    return config

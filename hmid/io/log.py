@@ -1,0 +1,136 @@
+"""The :class:`Log` type: one sampled rig record in SI units.
+
+A log is a time column ``t`` plus named channels (``P``, ``x``, ``F``, optional ``a``, ``v``, and any
+others), all float64 in SI units, with the metadata needed to interpret it: where it came from, the
+rig's constants, and non-fatal findings from validation (``flags``). Logs are immutable: methods that
+change data return a new log.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+import numpy as np
+import pandas as pd
+
+from hmid.errors import LogError
+
+#: SI unit of each canonical channel; other channels carry the SI base unit of their dimension.
+CANONICAL_UNITS: Mapping[str, str] = MappingProxyType(
+    {
+        "t": "s",  # time
+        "P": "Pa",  # pressure, gauge
+        "x": "m",  # elongation / block position
+        "v": "m/s",  # velocity
+        "a": "m/s^2",  # acceleration
+        "F": "N",  # measured (load-cell) force
+    }
+)
+
+
+@dataclass(frozen=True)
+class RigConstants:
+    """Constants of the Ch. 4 test rig that a log was recorded on (SI units)."""
+
+    M: float | None = None  # block (+ force plate) mass, kg
+    m1: float | None = None  # hanging mass, kg
+    g: float = 9.80665  # gravitational acceleration, m/s^2
+
+    def __post_init__(self) -> None:
+        for name in ("M", "m1", "g"):
+            value = getattr(self, name)
+            if value is not None and not (np.isfinite(value) and value > 0):
+                raise LogError(f"rig constant {name}={value!r} must be a positive finite number")
+
+
+@dataclass(frozen=True, eq=False)
+class Log:
+    """A validated rig log: ``data`` holds ``t`` and the channels, float64, SI units."""
+
+    data: pd.DataFrame
+    source: str = "<memory>"
+    units: Mapping[str, str] = field(default_factory=dict)
+    rig: RigConstants = field(default_factory=RigConstants)
+    flags: tuple[str, ...] = ()
+    meta: Mapping[str, object] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if "t" not in self.data.columns:
+            raise LogError(f"{self.source}: a log needs a time column 't'")
+        frame = self.data.reset_index(drop=True).astype("float64", copy=True)
+        units = {name: self.units.get(name, CANONICAL_UNITS.get(name, "")) for name in frame}
+        missing = [name for name, unit in units.items() if not unit]
+        if missing:
+            raise LogError(f"{self.source}: no unit given for channel(s) {missing}")
+        object.__setattr__(self, "data", frame)
+        object.__setattr__(self, "units", MappingProxyType(units))
+        object.__setattr__(self, "meta", MappingProxyType(dict(self.meta)))
+        object.__setattr__(self, "flags", tuple(self.flags))
+
+    # -- access -----------------------------------------------------------------------------
+    def __getitem__(self, channel: str) -> np.ndarray:
+        """The channel's samples as a read-only float64 array."""
+        if channel not in self.data.columns:
+            raise KeyError(f"{self.source}: no channel {channel!r}; it has {list(self.data)}")
+        values = self.data[channel].to_numpy(dtype="float64", copy=True)
+        values.flags.writeable = False
+        return values
+
+    def __contains__(self, channel: object) -> bool:
+        return channel in self.data.columns
+
+    def __len__(self) -> int:
+        return len(self.data)
+
+    @property
+    def t(self) -> np.ndarray:
+        return self["t"]
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        """Channel names other than time."""
+        return tuple(c for c in self.data.columns if c != "t")
+
+    @property
+    def duration(self) -> float:
+        t = self.data["t"].to_numpy()
+        return float(t[-1] - t[0]) if len(t) else 0.0
+
+    @property
+    def sample_rate(self) -> float:
+        """Median sampling rate in Hz (robust to occasional gaps)."""
+        dt = np.diff(self.data["t"].to_numpy())
+        return float(1.0 / np.median(dt)) if len(dt) else float("nan")
+
+    # -- derived logs -----------------------------------------------------------------------
+    def with_channels(self, units: Mapping[str, str] | None = None, **channels: np.ndarray) -> Log:
+        """A new log with channels added or replaced (same length as this one)."""
+        frame = self.data.copy()
+        for name, values in channels.items():
+            values = np.asarray(values, dtype="float64")
+            if values.shape != (len(frame),):
+                raise LogError(
+                    f"{self.source}: channel {name!r} has shape {values.shape}, "
+                    f"expected ({len(frame)},)"
+                )
+            frame[name] = values
+        merged = dict(self.units) | dict(units or {})
+        return Log(frame, self.source, merged, self.rig, self.flags, self.meta)
+
+    def between(self, t0: float, t1: float) -> Log:
+        """The samples with ``t0 <= t <= t1`` as a new log."""
+        t = self.data["t"].to_numpy()
+        frame = self.data.loc[(t >= t0) & (t <= t1)]
+        return Log(frame, self.source, self.units, self.rig, self.flags, self.meta)
+
+    def to_frame(self) -> pd.DataFrame:
+        """A copy of the data as a DataFrame (SI units)."""
+        return self.data.copy()
+
+    def __repr__(self) -> str:
+        return (
+            f"Log({self.source!r}, n={len(self)}, {self.duration:.3f} s, "
+            f"{self.sample_rate:.1f} Hz, channels={list(self.channels)})"
+        )

@@ -1,0 +1,109 @@
+"""Run folders ``results/<experiment>/<run-id>/``: created once, never overwritten, with a manifest.
+
+The manifest records what is needed to replay a run: the resolved config, a SHA-256 of every
+input file, the git commit (and whether the tree was dirty), package versions, the seed, and
+start/end times with per-stage wall times.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import json
+import platform
+import subprocess
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from importlib import metadata
+from pathlib import Path
+
+from hmid.files import sha256, write_json
+
+PACKAGES = ("hmid", "numpy", "scipy", "pandas", "jax", "pysindy", "emcee", "statsmodels", "pint",
+            "pydantic", "matplotlib")  # fmt: skip
+
+
+def _now() -> str:
+    return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
+
+
+def git_state(cwd: Path | None = None) -> dict[str, object]:
+    """Commit hash and dirty flag of the working tree hmid runs in (None outside git)."""
+    try:
+        run = lambda *a: subprocess.run(  # noqa: E731
+            ["git", *a], cwd=cwd, capture_output=True, text=True, timeout=10, check=True
+        ).stdout.strip()
+        return {"commit": run("rev-parse", "HEAD"), "dirty": bool(run("status", "--porcelain"))}
+    except (OSError, subprocess.SubprocessError):
+        return {"commit": None, "dirty": None}
+
+
+def versions() -> dict[str, str | None]:
+    out: dict[str, str | None] = {"python": platform.python_version()}
+    for name in PACKAGES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = None
+    return out
+
+
+def new_run_dir(results: Path, experiment: str, config_json: str) -> Path:
+    """A new, empty run folder named ``<UTC time>-<config hash>`` (suffixed if taken)."""
+    stamp = _dt.datetime.now(_dt.UTC).strftime("%Y%m%dT%H%M%SZ")
+    digest = hashlib.sha256(config_json.encode()).hexdigest()[:8]
+    base = Path(results) / experiment
+    base.mkdir(parents=True, exist_ok=True)
+    for k in range(1000):
+        run_dir = base / (f"{stamp}-{digest}" + (f"-{k}" if k else ""))
+        try:
+            run_dir.mkdir()  # atomic: two runs never share a folder
+            return run_dir
+        except FileExistsError:
+            continue
+    raise FileExistsError(f"{base}: could not create a fresh run folder")
+
+
+@dataclass
+class Manifest:
+    """Provenance of one run; :meth:`stage` times a stage, :meth:`write` saves manifest.json."""
+
+    run_dir: Path
+    config: dict
+    seed: int
+    inputs: dict[str, str] = field(default_factory=dict)
+    stages: dict[str, float] = field(default_factory=dict)
+    started: str = field(default_factory=_now)
+
+    def add_input(self, path: Path) -> None:
+        self.inputs[str(path)] = sha256(path)
+
+    @contextmanager
+    def stage(self, name: str) -> Iterator[None]:
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.stages[name] = self.stages.get(name, 0.0) + time.perf_counter() - start
+
+    def write(self) -> Path:
+        return write_json(
+            self.run_dir / "manifest.json",
+            {
+                "config": self.config,
+                "seed": self.seed,
+                "inputs_sha256": self.inputs,
+                "git": git_state(),
+                "versions": versions(),
+                "started": self.started,
+                "finished": _now(),
+                "stage_wall_s": {k: round(v, 4) for k, v in self.stages.items()},
+            },
+        )
+
+
+def config_json(config) -> str:
+    """Canonical JSON of a pydantic config (hash input and manifest entry)."""
+    return json.dumps(config.model_dump(mode="json"), sort_keys=True)

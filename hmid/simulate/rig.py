@@ -1,0 +1,201 @@
+"""Time integration of the Ch. 4 rig: block M + hanging mass m1, driven by the muscle (eqs. 4.1, 4.2).
+
+Motion along the rail obeys  (M + m1) a = F_m - m1 g - f,  where f is rail + pulley friction.
+Friction follows a stick-slip (Karnopp-style) law, so the block stops and stays stopped while the
+applied force is below the breakaway level, and never chatters through zero velocity:
+
+* stuck: the block stays at rest while |F_m - m1 g| <= F_s; above it, it starts to slide against the
+  friction level at v = 0+ in the direction of the applied force;
+* sliding: a = (F_app - f(v)) / (M + m1); if the velocity would change sign within a step the block
+  stops at v = 0 and becomes stuck (the next step decides whether it breaks away again).
+
+Semi-implicit Euler with ``substeps`` steps per sample; the Maxwell arm's force q is advanced
+exactly for constant velocity over a step. The pressure follows the command through the valve's
+slew-limited first-order lag. The loop runs in ``jax.lax.scan`` in float64: a 60 s log at 1 kHz
+with 10 substeps takes well under a second after compilation.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from scipy.optimize import brentq
+
+from hmid.errors import SimulationError
+from hmid.simulate.effects import Effect
+from hmid.simulate.params import RigParams
+
+
+class _Constants(NamedTuple):
+    """Rig parameters as a pytree of floats (traced, so new values do not recompile)."""
+
+    A_eff: float
+    F0: float
+    k1: float
+    k3: float
+    k2: float
+    tau: float
+    Fc: float
+    static_ratio: float
+    M: float
+    m1: float
+    g: float
+    x_min: float
+    x_max: float
+    valve_tau: float
+    slew: float
+    connected: float  # 1.0 with the muscle attached, 0.0 for free-fall tests
+
+
+class Trajectory(NamedTuple):
+    """True rig signals at the sample instants (SI units)."""
+
+    t: np.ndarray
+    P_cmd: np.ndarray
+    P: np.ndarray  # true gauge pressure in the muscle
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray  # mean acceleration over the preceding sample interval
+    F_m: np.ndarray  # muscle force
+    friction: np.ndarray  # mean friction force over the interval (signed, along +x)
+    q: np.ndarray  # Maxwell-arm force
+    stuck: np.ndarray  # block at rest at the sample instant
+    contact: np.ndarray  # block touched an end stop during the interval
+    tension_min: np.ndarray  # least string tension m1 (g + a) within the interval
+
+
+def _constants(rig: RigParams, connected: bool) -> _Constants:
+    m, f, vlv = rig.muscle, rig.friction, rig.valve
+    return _Constants(
+        m.A_eff, m.F0, m.k1, m.k3, m.k2, m.tau, f.coulomb, f.static_ratio, rig.M, rig.m1, rig.g,
+        rig.x_min, rig.x_max, vlv.tau, vlv.slew, 1.0 if connected else 0.0,
+    )  # fmt: skip
+
+
+def _muscle_force(c: _Constants, effects, t, x, q, P):
+    stiffness = 1.0
+    for effect in effects:
+        stiffness = stiffness * effect.stiffness(t)
+    return c.connected * (c.A_eff * P + c.F0 - stiffness * (c.k1 * x + c.k3 * x**3 + q))
+
+
+def _substep(c: _Constants, effects, dt, held, P_cmd, state):
+    t, x, v, q, P, stuck = state
+    P = P + jnp.clip((P_cmd - P) / c.valve_tau, -c.slew, c.slew) * dt
+    F_app = _muscle_force(c, effects, t, x, q, P) - c.m1 * c.g
+    mass = c.M + c.m1
+
+    def slide_force(vel):
+        return jnp.sign(vel) * c.Fc + sum(e.sliding(vel, P, x) for e in effects)
+
+    F_s = c.Fc * c.static_ratio + sum(e.breakaway(P, x) for e in effects)
+    blocked = ((x <= c.x_min) & (F_app < 0)) | ((x >= c.x_max) & (F_app > 0))
+    breaks = (jnp.abs(F_app) > F_s) & ~blocked & ~held
+    f_start = slide_force(jnp.sign(F_app) * 1e-12)
+    f_stuck = jnp.where(breaks, f_start, jnp.where(blocked, 0.0, F_app))
+    friction = jnp.where(stuck, f_stuck, slide_force(v))
+    a = jnp.where(stuck & ~breaks, 0.0, (F_app - friction) / mass)
+
+    v_new = v + a * dt
+    reversed_ = ~stuck & (v_new * v < 0)
+    v_new = jnp.where(reversed_ | held, 0.0, v_new)
+    x_new = x + v_new * dt
+    contact = (x_new < c.x_min) | (x_new > c.x_max)
+    x_new = jnp.clip(x_new, c.x_min, c.x_max)
+    v_new = jnp.where(contact, 0.0, v_new)
+    stuck_new = jnp.where(stuck, ~breaks, reversed_) | contact | held
+
+    decay = jnp.exp(-dt / c.tau)
+    q_new = q * decay + c.k2 * c.tau * (1.0 - decay) * v_new
+    a_eff = (v_new - v) / dt
+    f_eff = jnp.where(contact | blocked, friction, F_app - mass * a_eff)
+    tension = jnp.where(contact, jnp.inf, c.m1 * (c.g + a_eff))
+    return (t + dt, x_new, v_new, q_new, P, stuck_new), (f_eff, contact | blocked, tension)
+
+
+def _integrate(c, effects, P_cmd, held, init, dt, substeps: int):
+    def sample(state, inputs):
+        P_c, hold = inputs
+        v_start = state[2]
+
+        def body(_, carry):
+            st, f_sum, touched, t_min = carry
+            st, (f, contact, tension) = _substep(c, effects, dt, hold, P_c, st)
+            return st, f_sum + f, touched | contact, jnp.minimum(t_min, tension)
+
+        state, f_sum, touched, t_min = jax.lax.fori_loop(
+            0, substeps, body, (state, 0.0, False, jnp.inf)
+        )
+        t, x, v, q, P, stuck = state
+        a_mean = (v - v_start) / (dt * substeps)
+        F_m = _muscle_force(c, effects, t, x, q, P)
+        return state, (P, x, v, a_mean, F_m, f_sum / substeps, q, stuck, touched, t_min)
+
+    _, out = jax.lax.scan(sample, init, (P_cmd, held))
+    return out
+
+
+_integrate_jit = jax.jit(_integrate, static_argnames=("substeps",))
+
+
+def equilibrium(rig: RigParams, P: float, effects: tuple[Effect, ...] = ()) -> float:
+    """Static elongation where the muscle balances the hanging weight at pressure P (no friction)."""
+    m = rig.muscle
+    stiffness = float(np.prod([float(e.stiffness(0.0)) for e in effects])) if effects else 1.0
+
+    def residual(x):
+        return m.A_eff * P + m.F0 - stiffness * (m.k1 * x + m.k3 * x**3) - rig.m1 * rig.g
+
+    if residual(rig.x_min) <= 0:
+        return rig.x_min
+    if residual(rig.x_max) >= 0:
+        return rig.x_max
+    return brentq(residual, rig.x_min, rig.x_max, xtol=1e-15)
+
+
+def integrate(
+    rig: RigParams,
+    P_cmd: np.ndarray,
+    rate: float,
+    *,
+    effects: tuple[Effect, ...] = (),
+    connected: bool = True,
+    x0: float | None = None,
+    held: np.ndarray | None = None,
+    substeps: int = 10,
+) -> Trajectory:
+    """Integrate the rig for the commanded pressure sampled at ``rate`` Hz (zero-order hold).
+
+    Starts at rest with P = P_cmd[0] and, for a connected muscle, at the static equilibrium
+    unless ``x0`` is given. ``held[k]`` keeps the block clamped during sample k (free-fall release).
+    Raises :class:`SimulationError` if the string would go slack (a < -g), where eq. 4.1 fails.
+    """
+    P_cmd = np.asarray(P_cmd, dtype=float)
+    n = len(P_cmd)
+    held = np.zeros(n, dtype=bool) if held is None else np.asarray(held, dtype=bool)
+    if x0 is None:
+        x0 = equilibrium(rig, float(P_cmd[0]), effects) if connected else rig.x_min
+    dt = 1.0 / (rate * substeps)
+    with jax.enable_x64(True):
+        init = (
+            jnp.float64(0.0), jnp.float64(x0), jnp.float64(0.0), jnp.float64(0.0),
+            jnp.float64(P_cmd[0]), jnp.bool_(True),
+        )  # fmt: skip
+        out = _integrate_jit(
+            _constants(rig, connected), tuple(effects), jnp.asarray(P_cmd), jnp.asarray(held),
+            init, dt, substeps,
+        )  # fmt: skip
+        out = [np.asarray(o) for o in out]
+    P, x, v, a, F_m, friction, q, stuck, contact, tension = out
+    t = np.arange(1, n + 1) / rate
+    slack = np.flatnonzero(tension < 0)
+    if slack.size:
+        k = slack[0]
+        raise SimulationError(
+            f"the string to the hanging mass goes slack at t = {t[k]:.4f} s (a < -g): eq. 4.1 "
+            f"no longer holds; command gentler pressure changes or lower valve.slew"
+        )
+    return Trajectory(t, P_cmd, P, x, v, a, F_m, friction, q, stuck, contact, tension)
