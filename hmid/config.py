@@ -8,33 +8,39 @@ from typing import TypeVar
 import yaml
 from pydantic import BaseModel, ValidationError
 
+from hmid._messages import format_validation_error
 from hmid.errors import ConfigError
-from hmid.io._config_errors import format_validation_error
 
 M = TypeVar("M", bound=BaseModel)
 
 
-def read_yaml(path: str | Path) -> dict:
-    """The mapping at the top of a YAML file; unreadable files and bad syntax are ConfigErrors."""
+def read_yaml(path: str | Path, what: str = "config", hint: str = "") -> dict:
+    """The mapping at the top of a YAML file; unreadable files and bad syntax are ConfigErrors.
+
+    ``what`` names the kind of file in messages; ``hint`` says what the mapping should hold.
+    """
     source = str(path)
     try:
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as err:
-        raise ConfigError(f"{source}: cannot read config: {err.__class__.__name__}: {err}") from None
+        raise ConfigError(f"{source}: cannot read {what}: {err}") from None
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         line = f" at line {mark.line + 1}" if mark is not None else ""
-        raise ConfigError(f"{source}: not valid YAML{line}: {getattr(err, 'problem', err)}") from None
+        problem = getattr(err, "problem", None) or "syntax error"
+        raise ConfigError(f"{source}: not valid YAML{line}: {problem}") from None
     if not isinstance(data, dict):
-        raise ConfigError(f"{source}: a config must be a YAML mapping, got {type(data).__name__}")
+        raise ConfigError(
+            f"{source}: a {what} must be a YAML mapping{hint}, got {type(data).__name__}"
+        )
     return data
 
 
-def load_yaml_model(path: str | Path, model: type[M]) -> M:
+def load_yaml_model(path: str | Path, model: type[M], what: str = "config", hint: str = "") -> M:
     """Read ``path`` and validate it as ``model``; unknown keys and bad values name the key."""
-    data = read_yaml(path)
+    data = read_yaml(path, what, hint)
     try:
         return model.model_validate(data)
     except ValidationError as err:

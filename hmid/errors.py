@@ -37,7 +37,7 @@ class HmidWarning(UserWarning):
 
 
 def where(source: str | None, column: str | None = None, row: int | None = None) -> str:
-    """Prefix ``"file: column 'c' row r: "`` for one-line messages; parts that are None are left out."""
+    """Prefix ``"file: column 'c' row r: "`` for one-line messages; None parts are left out."""
     parts = [source or "<table>"]
     if column is not None:
         parts.append(f"column {column!r}")

@@ -102,7 +102,12 @@ def plot_overview(logs: dict[str, Log], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows = [("P", 1e-3, "P [kPa]"), ("x", 1e3, "x [mm]"), ("v", 1e3, "v [mm/s]"), ("F", 1.0, "F [N]")]
+    rows = [
+        ("P", 1e-3, "P [kPa]"),
+        ("x", 1e3, "x [mm]"),
+        ("v", 1e3, "v [mm/s]"),
+        ("F", 1.0, "F [N]"),
+    ]
     fig, axes = plt.subplots(len(rows), len(logs), figsize=(3.2 * len(logs), 8), squeeze=False)
     for j, (name, log) in enumerate(logs.items()):
         axes[0, j].set_title(name, fontsize=9)

@@ -1,9 +1,9 @@
 """The :class:`Log` type: one sampled rig record in SI units.
 
-A log is a time column ``t`` plus named channels (``P``, ``x``, ``F``, optional ``a``, ``v``, and any
-others), all float64 in SI units, with the metadata needed to interpret it: where it came from, the
-rig's constants, and non-fatal findings from validation (``flags``). Logs are immutable: methods that
-change data return a new log.
+A log is a time column ``t`` plus named channels (``P``, ``x``, ``F``, optional ``a``, ``v``, and
+any others), all float64 in SI units, with the metadata needed to interpret it: where it came from,
+the rig's constants, and non-fatal findings from validation (``flags``). Logs are immutable:
+methods that change data return a new log.
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ class Log:
     def __post_init__(self) -> None:
         if "t" not in self.data.columns:
             raise LogError(f"{self.source}: a log needs a time column 't'")
-        frame = self.data.reset_index(drop=True).astype("float64", copy=True)
+        frame = self.data.reset_index(drop=True).astype("float64")
         units = {name: self.units.get(name, CANONICAL_UNITS.get(name, "")) for name in frame}
         missing = [name for name, unit in units.items() if not unit]
         if missing:

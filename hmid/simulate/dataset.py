@@ -49,7 +49,7 @@ class _LogSpec(_Frozen):
 
 
 class DynamicLog(_LogSpec):
-    """A dynamic-loading test (thesis Ch. 4): the muscle drives the block under a pressure profile."""
+    """A dynamic-loading test (thesis Ch. 4): the muscle drives the block, pressure commanded."""
 
     kind: Literal["dynamic"] = "dynamic"
     profile: Profile
@@ -84,7 +84,7 @@ class DatasetConfig(_Frozen):
     rig: RigParams = RigParams()
     sensors: Sensors = Sensors()
     free_fall_sensors: Sensors = FREE_FALL_SENSORS
-    substeps: Annotated[int, Field(ge=1, le=1000)] = 10
+    substeps: Annotated[int, Field(ge=1, le=1000)] = 20
     output: Output = Output()
     logs: tuple[LogSpec, ...]
 
@@ -116,7 +116,7 @@ def simulate_log(config: DatasetConfig, spec: DynamicLog | FreeFallLog) -> Simul
     rng = np.random.default_rng(seed)
     free_fall = isinstance(spec, FreeFallLog)
     sensors = spec.sensors or (config.free_fall_sensors if free_fall else config.sensors)
-    n = int(round(spec.duration * sensors.rate))
+    n = round(spec.duration * sensors.rate)
     t = np.arange(1, n + 1) / sensors.rate
     profile = Constant(value=0.0) if free_fall else spec.profile
     P_cmd = profile.command(t - t[0], rng)

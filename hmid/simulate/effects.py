@@ -64,7 +64,7 @@ def _check(condition: bool, kind: str, message: str) -> None:
 
 
 class ViscousFriction(Effect):
-    """Viscous friction b v (lubricated rail, fluid drag): a real rig shows force growing with speed."""
+    """Viscous friction b v (lubricated rail, fluid drag): friction force growing with speed."""
 
     kind: ClassVar[str] = "viscous"
     signals: ClassVar[tuple[str, ...]] = ("x", "F")
@@ -100,7 +100,7 @@ class StribeckFriction(Effect):
 
 
 class PressureFriction(Effect):
-    """Friction growing with pressure, mu_P P (a pressurised sheath or seal pressed on its guide)."""
+    """Friction growing with pressure, mu P (a pressurised sheath or seal pressed on its guide)."""
 
     kind: ClassVar[str] = "pressure_friction"
     signals: ClassVar[tuple[str, ...]] = ("x", "F")
@@ -161,7 +161,7 @@ class StiffnessDrift(Effect):
 
 
 class RailRipple(Effect):
-    """Friction that varies along the rail, amplitude (1 + sin(2 pi x / wavelength)) (waviness, debris).
+    """Friction varying along the rail, amplitude (1 + sin(2 pi x / wavelength)): waviness, debris.
 
     Deliberately outside the usual candidate effects: a test of the "unexplained structure" path.
     """
@@ -186,7 +186,7 @@ class RailRipple(Effect):
 
 
 class LoadCellDrift(Effect):
-    """The load cell's zero drifts linearly (temperature): the force channel gains offset + rate t."""
+    """The load cell's zero drifts (temperature): the force channel gains offset + rate t."""
 
     kind: ClassVar[str] = "load_cell_drift"
     signals: ClassVar[tuple[str, ...]] = ("F",)

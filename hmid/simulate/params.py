@@ -20,7 +20,7 @@ class _Frozen(BaseModel):
 
 
 class MuscleParams(_Frozen):
-    """Hydro Muscle force: F_m = A_eff P + F0 - s(t) (k1 x + k3 x^3 + q),  dq/dt = -q/tau + k2 dx/dt.
+    """Hydro Muscle force: F_m = A_eff P + F0 - s(t) (k1 x + k3 x^3 + q), dq/dt = -q/tau + k2 dx/dt.
 
     ``q`` is the force in the Maxwell arm of a standard linear solid (spring k2 in series with a
     dashpot eta = k2 tau), k1 the equilibrium spring, k3 its stiffening, s(t) = 1 unless an effect
@@ -74,7 +74,7 @@ class RigParams(_Frozen):
 
 
 class SensorSpec(_Frozen):
-    """One sensor: true value -> + Gaussian noise -> 10-bit ADC over [lo, hi] -> engineering value."""
+    """One sensor: true value + Gaussian noise -> ADC over [lo, hi] -> engineering value."""
 
     lo: float
     hi: float

@@ -1,6 +1,7 @@
 """Thesis Ch. 2: a pre-stretched muscle with a 10 kg mass relaxes as its water escapes a valve.
 
-Extension/retraction (thesis eqs. 2.3/2.4, elongation x > 0 downwards, water mass m = rho A (L0 + x)):
+Extension/retraction (thesis eqs. 2.3/2.4; elongation x > 0 downwards; water mass
+m = rho A (L0 + x)):
 
     (m + m1) x'' = m1 g + P A - k x
 
@@ -53,14 +54,14 @@ class Relaxation(NamedTuple):
 
 
 def relax(
-    params: RelaxationParams = RelaxationParams(),
+    params: RelaxationParams | None = None,
     valve: Literal["instant", "ramp"] = "instant",
     *,
     t_max: float = 0.3,
     n_points: int = 3001,
 ) -> Relaxation:
     """Simulate the relaxation from the pre-stretched state until the equilibrium crossing."""
-    p = params
+    p = params or RelaxationParams()
     x_eq = p.m1 * p.g / p.k
     x0 = (p.m1 * p.g + p.P0 * p.A) / p.k
 

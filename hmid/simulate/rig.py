@@ -1,4 +1,4 @@
-"""Time integration of the Ch. 4 rig: block M + hanging mass m1, driven by the muscle (eqs. 4.1, 4.2).
+"""Time integration of the Ch. 4 rig: block M and hanging mass m1 driven by the muscle (eq. 4.1).
 
 Motion along the rail obeys  (M + m1) a = F_m - m1 g - f,  where f is rail + pulley friction.
 Friction follows a stick-slip (Karnopp-style) law, so the block stops and stays stopped while the
@@ -6,13 +6,17 @@ applied force is below the breakaway level, and never chatters through zero velo
 
 * stuck: the block stays at rest while |F_m - m1 g| <= F_s; above it, it starts to slide against the
   friction level at v = 0+ in the direction of the applied force;
-* sliding: a = (F_app - f(v)) / (M + m1); if the velocity would change sign within a step the block
-  stops at v = 0 and becomes stuck (the next step decides whether it breaks away again).
+* sliding: a = (F_app - f(v)) / (M + m1); if the velocity reaches zero within a step, the rest of
+  the step is treated as stuck: the block stays at rest, or breaks away in the direction of the
+  applied force if that exceeds the breakaway level.
 
 Semi-implicit Euler with ``substeps`` steps per sample; the Maxwell arm's force q is advanced
-exactly for constant velocity over a step. The pressure follows the command through the valve's
-slew-limited first-order lag. The loop runs in ``jax.lax.scan`` in float64: a 60 s log at 1 kHz
-with 10 substeps takes well under a second after compilation.
+exactly for constant velocity over a step. Accelerations and forces are logged from the last
+substep before each sample instant (a sample-and-hold reading, time-aligned to within one
+substep), so F_m - m1 g - friction = (M + m1) a holds exactly at every logged sample. The
+pressure follows the command through the valve's slew-limited first-order lag. The loop runs in
+``jax.lax.scan`` in float64: a 60 s log at 1 kHz with 20 substeps takes well under a second after
+compilation.
 """
 
 from __future__ import annotations
@@ -58,9 +62,9 @@ class Trajectory(NamedTuple):
     P: np.ndarray  # true gauge pressure in the muscle
     x: np.ndarray
     v: np.ndarray
-    a: np.ndarray  # mean acceleration over the preceding sample interval
-    F_m: np.ndarray  # muscle force
-    friction: np.ndarray  # mean friction force over the interval (signed, along +x)
+    a: np.ndarray  # acceleration (in the last substep before the sample instant)
+    F_m: np.ndarray  # muscle force (in the last substep)
+    friction: np.ndarray  # friction force (in the last substep; signed, along +x)
     q: np.ndarray  # Maxwell-arm force
     stuck: np.ndarray  # block at rest at the sample instant
     contact: np.ndarray  # block touched an end stop during the interval
@@ -100,39 +104,50 @@ def _substep(c: _Constants, effects, dt, held, P_cmd, state):
     a = jnp.where(stuck & ~breaks, 0.0, (F_app - friction) / mass)
 
     v_new = v + a * dt
+    # A sliding block that reaches v = 0 within the step spends the rest of it as a stuck block:
+    # it breaks away again only if the applied force exceeds the breakaway level.
     reversed_ = ~stuck & (v_new * v < 0)
-    v_new = jnp.where(reversed_ | held, 0.0, v_new)
+    rest = jnp.where(reversed_, v_new / jnp.where(reversed_, a * dt, 1.0), 0.0)  # in (0, 1)
+    rebreaks = reversed_ & (jnp.abs(F_app) > F_s) & ~held
+    v_rebound = (F_app - f_start) / mass * rest * dt
+    v_new = jnp.where(reversed_, jnp.where(rebreaks, v_rebound, 0.0), v_new)
+    v_new = jnp.where(held, 0.0, v_new)
     x_new = x + v_new * dt
     contact = (x_new < c.x_min) | (x_new > c.x_max)
     x_new = jnp.clip(x_new, c.x_min, c.x_max)
     v_new = jnp.where(contact, 0.0, v_new)
-    stuck_new = jnp.where(stuck, ~breaks, reversed_) | contact | held
+    stuck_new = jnp.where(stuck, ~breaks, reversed_ & ~rebreaks) | contact | held
 
     decay = jnp.exp(-dt / c.tau)
     q_new = q * decay + c.k2 * c.tau * (1.0 - decay) * v_new
     a_eff = (v_new - v) / dt
     f_eff = jnp.where(contact | blocked, friction, F_app - mass * a_eff)
     tension = jnp.where(contact, jnp.inf, c.m1 * (c.g + a_eff))
-    return (t + dt, x_new, v_new, q_new, P, stuck_new), (f_eff, contact | blocked, tension)
+    F_m = F_app + c.m1 * c.g
+    return (t + dt, x_new, v_new, q_new, P, stuck_new), (
+        a_eff,
+        f_eff,
+        F_m,
+        contact | blocked,
+        tension,
+    )
 
 
 def _integrate(c, effects, P_cmd, held, init, dt, substeps: int):
     def sample(state, inputs):
         P_c, hold = inputs
-        v_start = state[2]
 
         def body(_, carry):
-            st, f_sum, touched, t_min = carry
-            st, (f, contact, tension) = _substep(c, effects, dt, hold, P_c, st)
-            return st, f_sum + f, touched | contact, jnp.minimum(t_min, tension)
+            st, _, touched, t_min = carry
+            st, (a, f, F_m, contact, tension) = _substep(c, effects, dt, hold, P_c, st)
+            return st, (a, f, F_m), touched | contact, jnp.minimum(t_min, tension)
 
-        state, f_sum, touched, t_min = jax.lax.fori_loop(
-            0, substeps, body, (state, 0.0, False, jnp.inf)
+        zero = jnp.zeros(())
+        state, (a, f, F_m), touched, t_min = jax.lax.fori_loop(
+            0, substeps, body, (state, (zero, zero, zero), False, jnp.inf)
         )
-        t, x, v, q, P, stuck = state
-        a_mean = (v - v_start) / (dt * substeps)
-        F_m = _muscle_force(c, effects, t, x, q, P)
-        return state, (P, x, v, a_mean, F_m, f_sum / substeps, q, stuck, touched, t_min)
+        _, x, v, q, P, stuck = state
+        return state, (P, x, v, a, F_m, f, q, stuck, touched, t_min)
 
     _, out = jax.lax.scan(sample, init, (P_cmd, held))
     return out
@@ -142,7 +157,7 @@ _integrate_jit = jax.jit(_integrate, static_argnames=("substeps",))
 
 
 def equilibrium(rig: RigParams, P: float, effects: tuple[Effect, ...] = ()) -> float:
-    """Static elongation where the muscle balances the hanging weight at pressure P (no friction)."""
+    """Elongation at which the muscle holds the hanging weight at pressure P (no friction)."""
     m = rig.muscle
     stiffness = float(np.prod([float(e.stiffness(0.0)) for e in effects])) if effects else 1.0
 
@@ -165,7 +180,7 @@ def integrate(
     connected: bool = True,
     x0: float | None = None,
     held: np.ndarray | None = None,
-    substeps: int = 10,
+    substeps: int = 20,
 ) -> Trajectory:
     """Integrate the rig for the commanded pressure sampled at ``rate`` Hz (zero-order hold).
 

@@ -25,7 +25,9 @@ _SI = {"t": "s", "P": "Pa", "x": "m", "F": "N"}
 
 
 def _from_si(values: np.ndarray, channel: str, unit: str) -> np.ndarray:
-    return unit_registry().Quantity(np.asarray(values, dtype=float), _SI[channel]).to(unit).magnitude
+    return (
+        unit_registry().Quantity(np.asarray(values, dtype=float), _SI[channel]).to(unit).magnitude
+    )
 
 
 def column_name(channel: str, unit: str) -> str:

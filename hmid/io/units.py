@@ -1,0 +1,126 @@
+"""Unit conversion of log channels to SI with pint.
+
+Canonical channels (``hmid.io.log.CANONICAL_UNITS``) are converted to their fixed SI unit and must
+have the matching dimension; any other channel is converted to the coherent SI unit of its
+dimension. Pressures are gauge: they are scaled, never offset by an atmosphere.
+"""
+
+from __future__ import annotations
+
+from functools import cache, lru_cache
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from hmid.errors import UnitError
+from hmid.io.log import CANONICAL_UNITS
+
+if TYPE_CHECKING:
+    import pint
+
+#: Unit spellings to suggest, per canonical channel, when a unit is unknown or of the wrong kind.
+EXAMPLES: dict[str, str] = {
+    "t": "s, ms",
+    "P": "Pa, kPa, bar, psi",
+    "x": "m, mm",
+    "v": "m/s, mm/s",
+    "a": "m/s^2, g0",
+    "F": "N, kN, lbf",
+}
+_OTHER_EXAMPLES = "s, ms, mm, kPa, bar, N, V, m/s, count"
+
+# Coherent SI units by which non-canonical channels are reported, tried in order; a dimension not
+# listed falls back to pint's compact base-unit string (e.g. 'kg*m**2/s**2').
+_NAMED_SI = ("s", "m", "kg", "A", "K", "m/s", "m/s^2", "Pa", "N", "V", "J", "W", "ohm", "1/s")
+
+# Names for dimensions in messages; pint alone would say '[mass] / [length] / [time] ** 2'.
+_DIMENSION_NAMES = {
+    "s": "[time]",
+    "m": "[length]",
+    "kg": "[mass]",
+    "A": "[current]",
+    "K": "[temperature]",
+    "m/s": "[velocity]",
+    "m/s^2": "[acceleration]",
+    "Pa": "[pressure]",
+    "N": "[force]",
+    "V": "[voltage]",
+    "count": "dimensionless",
+}
+
+
+@cache
+def unit_registry() -> pint.UnitRegistry:
+    """The one pint registry hmid uses, created on first use (creating it takes ~0.4 s)."""
+    import pint
+
+    return pint.UnitRegistry()
+
+
+def _parse(unit: str) -> pint.Unit | None:
+    """The pint unit for ``unit``, or None if pint cannot read it."""
+    if not isinstance(unit, str) or not unit.strip():
+        return None
+    try:
+        return unit_registry().parse_units(unit.strip())
+    # pint's expression parser raises many unrelated types on malformed text (TokenError,
+    # AssertionError, ZeroDivisionError, ...); every one of them means "not a unit".
+    except Exception:
+        return None
+
+
+def dimension_name(unit: pint.Unit) -> str:
+    """A readable name of the unit's dimension, e.g. '[pressure]'."""
+    for reference, name in _DIMENSION_NAMES.items():
+        if unit.dimensionality == _parse(reference).dimensionality:
+            return name
+    return str(unit.dimensionality)
+
+
+@lru_cache(maxsize=256)
+def si_unit(unit: str, channel: str) -> str:
+    """The SI unit that ``unit`` converts to for ``channel``.
+
+    Raises :class:`UnitError` (message without a file prefix) if pint does not know ``unit`` or,
+    for a canonical channel, if its dimension is not the channel's.
+    """
+    parsed = _parse(unit)
+    examples = EXAMPLES.get(channel, _OTHER_EXAMPLES)
+    if parsed is None:
+        raise UnitError(f"unknown unit {unit!r}; write a unit such as {examples}")
+    if channel in CANONICAL_UNITS:
+        target = CANONICAL_UNITS[channel]
+        wanted = _parse(target)
+        if parsed.dimensionality != wanted.dimensionality:
+            kind = dimension_name(parsed)
+            kind = kind if kind == "dimensionless" else f"a {kind}"
+            raise UnitError(
+                f"unit {unit!r} is {kind}, channel {channel} needs a "
+                f"{dimension_name(wanted)} unit such as {examples}"
+            )
+        return target
+    for name in _NAMED_SI:
+        if parsed.dimensionality == _parse(name).dimensionality:
+            return name
+    base = unit_registry().Quantity(1.0, parsed).to_base_units().units
+    # 'count' is its own (dimensionless) base unit in pint; '' would mean plain dimensionless.
+    return f"{base:~C}" or "1"
+
+
+def to_si(
+    values: np.ndarray, unit: str, channel: str, source: str, *, column: str | int | None = None
+) -> tuple[np.ndarray, str]:
+    """``values`` in ``unit`` converted to SI for ``channel``: (float64 array, SI unit string).
+
+    Raises :class:`UnitError` naming ``source``, the column and the channel if the unit is unknown
+    or has the wrong dimension for a canonical channel.
+    """
+    try:
+        target = si_unit(unit, channel)
+    except UnitError as err:
+        place = f"channel {channel}" if column is None else f"column {column!r} (channel {channel})"
+        raise UnitError(f"{source}: {place}: {err}") from None
+    ureg = unit_registry()
+    quantity = ureg.Quantity(np.asarray(values, dtype="float64"), _parse(unit))
+    converted = quantity.to(_parse(target) if target != "1" else ureg.dimensionless)
+    return np.asarray(converted.magnitude, dtype="float64"), target

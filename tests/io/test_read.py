@@ -1,0 +1,211 @@
+"""Reading CSV/Parquet files and in-memory tables into logs (hmid.io.read)."""
+
+import hashlib
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hmid.errors import LogError
+from hmid.io import ChannelSpec, ColumnMap, Log, RigConstants, log_from_frame, read_log
+
+NAMED = ColumnMap(
+    channels={
+        "t": ChannelSpec(column="time_ms", unit="ms"),
+        "P": ChannelSpec(column="p_kpa", unit="kPa"),
+        "x": ChannelSpec(column="pos_mm", unit="mm"),
+    }
+)
+ROWS = [(0, 101.3, 12.5), (10, 200.0, 13.0), (20, 350.5, -1.5), (30, 0.0, 0.0)]
+EXPECTED = {
+    "t": [0.0, 0.01, 0.02, 0.03],
+    "P": [101300.0, 200000.0, 350500.0, 0.0],
+    "x": [0.0125, 0.013, -0.0015, 0.0],
+}
+
+
+def write_table(path, rows, sep=",", header=("time_ms", "p_kpa", "pos_mm"), end="\n"):
+    lines = [sep.join(header)] if header else []
+    lines += [sep.join(str(v) for v in row) for row in rows]
+    path.write_text(end.join(lines) + end)
+    return path
+
+
+def assert_expected(log: Log) -> None:
+    assert list(log.data.columns) == ["t", "P", "x"]
+    for name, values in EXPECTED.items():
+        np.testing.assert_allclose(log[name], values, rtol=1e-12, atol=1e-15)
+
+
+def test_csv_with_header_in_si(tmp_path):
+    path = write_table(tmp_path / "a.csv", ROWS)
+    log = read_log(path, NAMED)
+    assert_expected(log)
+    assert dict(log.units) == {"t": "s", "P": "Pa", "x": "m"}
+    assert log.source == str(path)
+    assert log.flags == ()
+    assert log.meta["file"] == str(path)
+    assert log.meta["sha256"] == hashlib.sha256(path.read_bytes()).hexdigest()
+    assert log.meta["format"] == "csv" and log.meta["delimiter"] == ","
+    assert log.sample_rate == pytest.approx(100.0, rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("sep", "name"), [(",", ","), ("\t", "\t"), (";", ";"), ("|", "|"), ("   ", "whitespace")]
+)
+@pytest.mark.parametrize("end", ["\n", "\r\n"])
+def test_delimiter_is_sniffed(tmp_path, sep, name, end):
+    path = write_table(tmp_path / "a.txt", ROWS, sep=sep, end=end)
+    log = read_log(path, NAMED)
+    assert_expected(log)
+    assert log.meta["delimiter"] == name
+
+
+def test_explicit_delimiter_and_whitespace(tmp_path):
+    path = write_table(tmp_path / "a.dat", ROWS, sep=" \t ")
+    assert_expected(read_log(path, NAMED.model_copy(update={"delimiter": "whitespace"})))
+    path = write_table(tmp_path / "b.csv", ROWS, sep=";")
+    assert_expected(read_log(path, NAMED.model_copy(update={"delimiter": ";"})))
+
+
+def test_headerless_by_position_with_comments_and_skipped_lines(tmp_path):
+    path = tmp_path / "a.csv"
+    body = "\n".join("\t".join(str(v) for v in (*row, 9.9)) for row in ROWS)
+    path.write_text(f"rig B, run 7\nsecond preamble line\n# comment\n\n{body}\n")
+    columns = ColumnMap(
+        channels={
+            "t": ChannelSpec(column=0, unit="ms"),
+            "P": ChannelSpec(column=1, unit="kPa"),
+            "x": ChannelSpec(column=2, unit="mm"),
+        },
+        header=False,
+        skip_rows=2,
+        comment="#",
+    )
+    assert_expected(read_log(path, columns))
+
+
+def test_only_mapped_columns_are_kept_and_a_column_may_feed_two_channels(tmp_path):
+    path = tmp_path / "a.csv"
+    path.write_text("time_ms,junk,p_kpa,pos_mm,note\n0,x,1,2,a\n1,y,3,4,b\n")
+    columns = ColumnMap(
+        channels={
+            "t": ChannelSpec(column="time_ms", unit="ms"),
+            "P": ChannelSpec(column="p_kpa", unit="kPa"),
+            "P_in_bar": ChannelSpec(column="p_kpa", unit="bar"),
+        }
+    )
+    log = read_log(path, columns)
+    assert list(log.data.columns) == ["t", "P", "P_in_bar"]
+    np.testing.assert_allclose(log["P"], [1e3, 3e3], rtol=1e-12)
+    np.testing.assert_allclose(log["P_in_bar"], [1e5, 3e5], rtol=1e-12)
+
+
+def test_adc_counts_with_offset_and_scale_to_si(tmp_path):
+    # 12-bit pressure ADC: kPa = -100 + 0.1 * counts; laser: mm = 2.5 + 0.01 * counts
+    path = tmp_path / "adc.csv"
+    path.write_text("t,p_adc,x_adc\n0,1000,10\n1,2048,250\n2,3000,4000\n")
+    columns = ColumnMap(
+        channels={
+            "t": ChannelSpec(column="t", unit="s"),
+            "P": ChannelSpec(column="p_adc", unit="kPa", offset=-100, scale=0.1, adc_bits=12),
+            "x": ChannelSpec(column="x_adc", unit="mm", offset=2.5, scale=0.01, adc_bits=12),
+            "P_adc": ChannelSpec(column="p_adc", unit="count"),
+        }
+    )
+    log = read_log(path, columns)
+    np.testing.assert_allclose(log["P"], [0.0, 104800.0, 200000.0], rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(log["x"], [0.0026, 0.005, 0.0425], rtol=1e-12)
+    np.testing.assert_array_equal(log["P_adc"], [1000.0, 2048.0, 3000.0])
+    assert log.units["P_adc"] == "count"
+    assert log.flags == ()
+
+
+def test_parquet_by_name_and_position(tmp_path):
+    frame = pd.DataFrame({"time_ms": [r[0] for r in ROWS], "p_kpa": [r[1] for r in ROWS]})
+    frame["pos_mm"] = [r[2] for r in ROWS]
+    for suffix in (".parquet", ".pq"):
+        path = tmp_path / f"a{suffix}"
+        frame.to_parquet(path)
+        log = read_log(path, NAMED)
+        assert_expected(log)
+        assert log.meta["format"] == "parquet"
+        assert log.meta["sha256"] == hashlib.sha256(path.read_bytes()).hexdigest()
+    by_position = ColumnMap(
+        channels={"t": ChannelSpec(column=0, unit="ms"), "x": ChannelSpec(column=2, unit="mm")}
+    )
+    np.testing.assert_allclose(read_log(path, by_position)["x"], EXPECTED["x"], rtol=1e-12)
+
+
+def test_broken_parquet_is_log_error(tmp_path):
+    path = tmp_path / "a.parquet"
+    path.write_text("time_ms,p_kpa\n0,1\n")
+    with pytest.raises(LogError, match=r"a\.parquet: cannot read as Parquet: "):
+        read_log(path, NAMED)
+
+
+def test_log_from_frame_matches_read_log(tmp_path):
+    frame = pd.DataFrame(ROWS, columns=["time_ms", "p_kpa", "pos_mm"])
+    log = log_from_frame(frame, NAMED, source="sim:seed=3")
+    assert_expected(log)
+    assert log.source == "sim:seed=3"
+    from_file = read_log(write_table(tmp_path / "a.csv", ROWS), NAMED)
+    pd.testing.assert_frame_equal(log.data, from_file.data)
+
+
+def test_log_from_frame_rejects_non_frames():
+    with pytest.raises(LogError, match=r"^<memory>: expected a pandas DataFrame, got dict$"):
+        log_from_frame({"t": [0, 1]}, NAMED)  # type: ignore[arg-type]
+
+
+def test_rig_constants_pass_through(tmp_path):
+    rig = RigConstants(M=1.2, m1=0.5)
+    log = read_log(write_table(tmp_path / "a.csv", ROWS), NAMED, rig=rig)
+    assert log.rig is rig
+    assert read_log(write_table(tmp_path / "b.csv", ROWS), NAMED).rig == RigConstants()
+
+
+def test_integer_and_nullable_columns_become_float64():
+    frame = pd.DataFrame(
+        {
+            "time_ms": pd.array([0, 1, 2], dtype="Int64"),
+            "p_kpa": np.array([1, 2, 3], dtype=np.int16),
+            "pos_mm": pd.array([1.0, 2.0, 3.0], dtype="Float64"),
+        }
+    )
+    log = log_from_frame(frame, NAMED)
+    assert (log.data.dtypes == np.float64).all()
+    np.testing.assert_allclose(log["P"], [1e3, 2e3, 3e3], rtol=1e-12)
+
+
+def test_missing_file_is_log_error(tmp_path):
+    with pytest.raises(LogError, match=r"nope\.csv: cannot read the file"):
+        read_log(tmp_path / "nope.csv", NAMED)
+
+
+def test_long_log_loads_fast(tmp_path):
+    # 60 s at 1 kHz, 5 columns: the C parser should need a few tens of ms
+    n = 60_000
+    rng = np.random.default_rng(7)
+    frame = pd.DataFrame(
+        {
+            "time_ms": np.arange(n, dtype=float),
+            "p_kpa": 300 + rng.normal(0, 5, n),
+            "pos_mm": rng.normal(10, 1, n),
+            "f_n": rng.normal(50, 2, n),
+            "v": rng.normal(0, 1, n),
+        }
+    )
+    path = tmp_path / "long.csv"
+    frame.to_csv(path, index=False, float_format="%.6f")
+    columns = NAMED.model_copy(
+        update={
+            "channels": {
+                **NAMED.channels,
+                "F": ChannelSpec(column="f_n", unit="N"),
+                "v": ChannelSpec(column="v", unit="mm/s"),
+            }
+        }
+    )
+    log = read_log(path, columns)
+    assert len(log) == n and log.duration == pytest.approx(59.999, abs=1e-9)

@@ -1,0 +1,89 @@
+"""The command line: help, simulate, relaxation, summary; bad input is one line and exit code 2."""
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from hmid.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_help_lists_the_commands(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["--help"])
+    assert exit_.value.code == 0
+    out = capsys.readouterr().out
+    for command in ("simulate", "relaxation", "summary"):
+        assert command in out
+
+
+@pytest.mark.parametrize("command", ["simulate", "relaxation", "summary"])
+def test_each_command_explains_itself(command, capsys):
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    assert len(capsys.readouterr().out.splitlines()) > 5
+
+
+def test_relaxation_writes_figure_and_numbers(tmp_path):
+    assert main(["relaxation", "--out", str(tmp_path / "r")]) == 0
+    numbers = json.loads((tmp_path / "r/relaxation.json").read_text())
+    assert 64 < numbers["cases"]["instant"]["t_equilibrium_ms"] < 70
+    assert (tmp_path / "r/relaxation.png").stat().st_size > 10_000
+
+
+def test_simulate_then_summary_end_to_end(tmp_path, capsys):
+    config = tmp_path / "set.yaml"
+    config.write_text(
+        "seed: 5\nlogs:\n"
+        "  - {name: sine, kind: dynamic, duration: 2, profile: {kind: sine}}\n"
+        "  - {name: drop, kind: free_fall, duration: 0.3}\n"
+    )
+    assert main(["simulate", str(config), "--out", str(tmp_path / "data"), "--quiet"]) == 0
+    experiment = tmp_path / "exp.yaml"
+    experiment.write_text(
+        "name: tiny\nseed: 5\nrig: {M: 0.25, m1: 0.5}\nlogs:\n"
+        "  - {path: data/sine.csv, columns: data/columns-dynamic.yaml, role: dynamic}\n"
+        "  - {path: data/drop.csv, columns: data/columns-free_fall.yaml, role: free_fall}\n"
+    )
+    results = tmp_path / "results"
+    for _ in range(2):  # a second run gets its own folder: nothing is overwritten
+        assert main(["summary", str(experiment), "--results", str(results), "--quiet"]) == 0
+    runs = sorted((results / "tiny").iterdir())
+    assert len(runs) == 2
+    first = runs[0]
+    for name in ("summary.md", "summary.json", "manifest.json", "config.yaml", "overview.png"):
+        assert (first / name).is_file(), name
+    manifest = json.loads((first / "manifest.json").read_text())
+    assert set(manifest["stage_wall_s"]) == {"load", "denoise", "report"}
+    assert len(manifest["inputs_sha256"]) == 5  # the config, two logs and their two column maps
+    summaries = json.loads((first / "summary.json").read_text())
+    assert (
+        json.loads((runs[1] / "summary.json").read_text()) == summaries
+    )  # same data, same numbers
+    assert [s["name"] for s in summaries] == ["sine", "drop"]
+
+
+def test_bad_config_is_one_line_and_exit_2(tmp_path, capsys):
+    config = tmp_path / "bad.yaml"
+    config.write_text(
+        "seed: 1\nlogs:\n"
+        "  - {name: a, kind: dynamic, duration: 1, profile: {kind: sine, ofset: 1}}\n"
+    )
+    assert main(["simulate", str(config), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0
+    assert "key 'logs.0.profile.ofset': unknown key; allowed keys are kind, offset" in err
+
+
+def test_missing_log_file_names_the_key(tmp_path, capsys):
+    experiment = tmp_path / "exp.yaml"
+    shutil.copy(ROOT / "data/demo/columns-dynamic.yaml", tmp_path / "c.yaml")
+    experiment.write_text(
+        "name: x\nseed: 1\nrig: {M: 1, m1: 1}\nlogs:\n"
+        "  - {path: nope.csv, columns: c.yaml, role: dynamic}\n"
+    )
+    assert main(["summary", str(experiment), "--results", str(tmp_path / "r")]) == 2
+    assert "key 'logs.0.path': file" in capsys.readouterr().err
