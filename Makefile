@@ -16,8 +16,9 @@ $(STAMP): pyproject.toml constraints.txt
 demo: $(STAMP)
 	$(BIN)/hmid summary configs/demo.yaml
 
-## test: set up .venv and run the test suite
+## test: set up .venv, lint, and run the test suite
 test: $(STAMP)
+	$(BIN)/ruff check hmid tests benchmarks pipelines
 	$(BIN)/python -m pytest -q
 
 lint: $(STAMP)

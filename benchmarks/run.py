@@ -1,0 +1,113 @@
+"""hmid benchmarks: each figure is a ratio against a baseline run side by side, medians of repeats.
+
+Run: ``make bench`` (or ``.venv/bin/python benchmarks/run.py``). Writes a Markdown table to stdout
+and to ``results/benchmarks/<UTC time>.md``.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _baseline_rig import integrate_python
+
+from hmid.io import ChannelSpec, ColumnMap, read_log
+from hmid.signal import moving_average
+from hmid.simulate.params import RigParams
+from hmid.simulate.profiles import Sine
+from hmid.simulate.rig import equilibrium, integrate
+
+
+def median_time(fn, repeats: int) -> float:
+    fn()  # warm-up: JIT compilation, caches, unit registry
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def bench_simulator(rows):
+    rig, rate, substeps = RigParams(), 1000.0, 20
+    for seconds, repeats, base_repeats in ((6.0, 5, 3), (60.0, 5, 0)):
+        t = np.arange(1, int(seconds * rate) + 1) / rate
+        P_cmd = Sine().command(t, None)
+        hmid_t = median_time(lambda P=P_cmd: integrate(rig, P, rate, substeps=substeps), repeats)
+        if base_repeats:
+            x0 = equilibrium(rig, float(P_cmd[0]))
+            x_ref = integrate_python(rig, P_cmd, rate, x0, substeps)
+            x_hmid = integrate(rig, P_cmd, rate, substeps=substeps).x
+            agree = float(np.max(np.abs(x_ref - x_hmid)))
+            base_t = median_time(
+                lambda P=P_cmd, x0=x0: integrate_python(rig, P, rate, x0, substeps), base_repeats
+            )
+            rows.append((f"rig simulator, {seconds:g} s at 1 kHz, 20 substeps",
+                         "pure-Python loop, same equations", hmid_t, base_t,
+                         f"max |x diff| {agree:.1e} m"))  # fmt: skip
+        else:
+            rows.append((f"rig simulator, {seconds:g} s at 1 kHz, 20 substeps", "—", hmid_t, None,
+                         "target: a few seconds"))  # fmt: skip
+
+
+def bench_moving_average(rows):
+    y = np.random.default_rng(0).normal(size=1_000_000)
+    for n in (11, 1001):
+        ours = median_time(lambda n=n: moving_average(y, n), 7)
+        series = pd.Series(y)
+        base = median_time(lambda n=n, s=series: s.rolling(n, center=True, min_periods=1).mean(), 7)
+        rows.append((f"centred moving average, 1e6 samples, window {n}",
+                     "pandas rolling(center=True).mean()", ours, base, ""))  # fmt: skip
+
+
+def bench_read_log(rows):
+    n = 60_000
+    rng = np.random.default_rng(1)
+    frame = pd.DataFrame({"t_ms": np.arange(n, dtype=float), "P_kPa": rng.uniform(0, 300, n),
+                          "x_mm": rng.uniform(0, 20, n), "F_N": rng.uniform(0, 10, n)})  # fmt: skip
+    units = {"t": "ms", "P": "kPa", "x": "mm", "F": "N"}
+    columns = ColumnMap(
+        channels={c: ChannelSpec(column=f"{c}_{u}", unit=u) for c, u in units.items()}
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "log.csv"
+        frame.to_csv(path, index=False)
+        ours = median_time(lambda: read_log(path, columns), 7)
+        base = median_time(lambda: pd.read_csv(path), 7)
+    rows.append(("read_log: 60 s, 1 kHz CSV, validated + SI", "pandas.read_csv alone", ours, base,
+                 "cost of validation and units"))  # fmt: skip
+
+
+def main() -> int:
+    rows: list[tuple] = []
+    bench_simulator(rows)
+    bench_moving_average(rows)
+    bench_read_log(rows)
+    lines = [
+        f"# hmid benchmarks ({dt.datetime.now(dt.UTC):%Y-%m-%d %H:%M} UTC, medians of repeats)",
+        "",
+        "| what | baseline | hmid [s] | baseline [s] | speed-up | note |",
+        "|---|---|---:|---:|---:|---|",
+    ]
+    for what, baseline, ours, base, note in rows:
+        ratio = f"{base / ours:.1f}x" if base else "—"
+        base_s = f"{base:.4f}" if base else "—"
+        lines.append(f"| {what} | {baseline} | {ours:.4f} | {base_s} | {ratio} | {note} |")
+    text = "\n".join(lines) + "\n"
+    print(text)
+    out = Path("results/benchmarks")
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"{dt.datetime.now(dt.UTC):%Y%m%dT%H%M%SZ}.md").write_text(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
