@@ -55,39 +55,37 @@ class Steps(_Profile):
         return sequence[index]
 
 
-class Sine(_Profile):
-    """``offset + amplitude sin(2 pi f t)``; close to the thesis's dynamic loading."""
+class _Oscillating(_Profile):
+    """A wave around ``offset``; the gauge pressure must stay >= 0."""
 
-    kind: Literal["sine"] = "sine"
     offset: Pressure = 1.4e5
     amplitude: Pressure = 1.0e5
-    frequency: Positive = 0.5  # Hz
 
     @model_validator(mode="after")
-    def _non_negative(self) -> Sine:
+    def _non_negative(self):
         if self.amplitude > self.offset:
             raise ValueError("amplitude must not exceed offset (gauge pressure stays >= 0)")
         return self
+
+
+class Sine(_Oscillating):
+    """``offset + amplitude sin(2 pi f t)``; close to the thesis's dynamic loading."""
+
+    kind: Literal["sine"] = "sine"
+    frequency: Positive = 0.5  # Hz
 
     def command(self, t, rng):
         return self.offset + self.amplitude * np.sin(2 * np.pi * self.frequency * t)
 
 
-class Chirp(_Profile):
+class Chirp(_Oscillating):
     """Sinusoid sweeping from ``f0`` to ``f1`` over the log (scipy.signal.chirp)."""
 
     kind: Literal["chirp"] = "chirp"
-    offset: Pressure = 1.4e5
     amplitude: Pressure = 8.0e4
     f0: Positive = 0.1
     f1: Positive = 3.0
     method: Literal["linear", "logarithmic"] = "logarithmic"
-
-    @model_validator(mode="after")
-    def _non_negative(self) -> Chirp:
-        if self.amplitude > self.offset:
-            raise ValueError("amplitude must not exceed offset (gauge pressure stays >= 0)")
-        return self
 
     def command(self, t, rng):
         t1 = float(t[-1]) if len(t) and t[-1] > 0 else 1.0
