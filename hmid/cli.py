@@ -13,8 +13,8 @@ _DESCRIPTION = """\
 hmid: system identification of soft fluidic actuators (the Hydro Muscle).
 
 commands:
-  simulate    generate a simulated data set (rig logs + ground truth) from a config
-  relaxation  reproduce the thesis's Ch. 2 relaxation experiment (figure + numbers)
+  simulate    generate a simulated data set (rig logs + ground truth, or the thesis's Ch. 2
+              relaxation curves and figure) from a config
   summary     load, validate, denoise and summarise the logs named by an experiment config
 """
 
@@ -36,34 +36,7 @@ def _simulate(args: argparse.Namespace) -> int:
             bar.update()
 
         paths = write_dataset(config, args.out, replace=args.replace, progress=step)
-    print(f"wrote {len(paths)} logs with ground truth and column maps to {args.out}")
-    return 0
-
-
-def _relaxation(args: argparse.Namespace) -> int:
-    from hmid.files import fresh_dir, write_json
-    from hmid.simulate.relaxation import RelaxationParams, plot_relaxations, relax
-
-    params = RelaxationParams(P0=args.p0)
-    out = fresh_dir(args.out, replace=args.replace)
-    results = [relax(params, valve) for valve in ("instant", "ramp")]
-    plot_relaxations(results, out / "relaxation.png")
-    summary = {
-        "params": params.model_dump(),
-        "cases": {
-            r.valve: {
-                "t_equilibrium_ms": r.t_eq * 1e3,
-                "peak_speed_m_s": float(abs(r.v).max()),
-                "peak_pressure_after_opening_kPa": float(r.P[1:].max() / 1e3),
-            }
-            for r in results
-        },
-    }
-    write_json(out / "relaxation.json", summary)
-    for r in results:
-        print(f"{r.valve:>7} opening: equilibrium after {r.t_eq * 1e3:.1f} ms, "
-              f"peak speed {abs(r.v).max():.3f} m/s")  # fmt: skip
-    print(f"figure and numbers in {out}")
+    print(f"wrote {len(paths)} simulated entries with their ground truth to {args.out}")
     return 0
 
 
@@ -84,26 +57,16 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "simulate",
         help="generate a simulated data set from a config",
-        description="Simulate every log named in a data-set config (see configs/simulate/) and "
-        "write the data files, their column maps and a ground-truth JSON per log. The output "
-        "folder must be new or empty unless --replace is given.",
+        description="Simulate every entry of a data-set config (see configs/simulate/): rig logs "
+        "(data files, their column maps, a ground-truth JSON per log) and Ch. 2 relaxation runs "
+        "(curves, figure, numbers; configs/simulate/ch2-relaxation.yaml). The output folder "
+        "must be new or empty unless --replace is given.",
     )
     p.add_argument("config", type=Path, help="data-set config (YAML)")
     p.add_argument("--out", type=Path, required=True, help="output folder")
     p.add_argument("--replace", action="store_true", help="regenerate into a non-empty folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_simulate)
-
-    p = sub.add_parser(
-        "relaxation",
-        help="reproduce the thesis's Ch. 2 relaxation (10 kg, valve opened instantly or 1 %%/ms)",
-        description="Simulate the Ch. 2 relaxation experiment for both valve cases and write "
-        "relaxation.png (elongation, velocity, acceleration, pressure) and relaxation.json.",
-    )
-    p.add_argument("--out", type=Path, required=True, help="output folder")
-    p.add_argument("--p0", type=float, default=5.0e4, help="pre-stretch gauge pressure, Pa")
-    p.add_argument("--replace", action="store_true", help="write into a non-empty folder")
-    p.set_defaults(func=_relaxation)
 
     p = sub.add_parser(
         "summary",

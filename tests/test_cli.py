@@ -16,22 +16,25 @@ def test_help_lists_the_commands(capsys):
         main(["--help"])
     assert exit_.value.code == 0
     out = capsys.readouterr().out
-    for command in ("simulate", "relaxation", "summary"):
+    for command in ("simulate", "summary"):
         assert command in out
 
 
-@pytest.mark.parametrize("command", ["simulate", "relaxation", "summary"])
+@pytest.mark.parametrize("command", ["simulate", "summary"])
 def test_each_command_explains_itself(command, capsys):
     with pytest.raises(SystemExit):
         main([command, "--help"])
     assert len(capsys.readouterr().out.splitlines()) > 5
 
 
-def test_relaxation_writes_figure_and_numbers(tmp_path):
-    assert main(["relaxation", "--out", str(tmp_path / "r")]) == 0
-    numbers = json.loads((tmp_path / "r/relaxation.json").read_text())
+def test_simulate_writes_the_ch2_relaxation_figure_and_numbers(tmp_path):
+    config = ROOT / "configs/simulate/ch2-relaxation.yaml"
+    assert main(["simulate", str(config), "--out", str(tmp_path / "r"), "--quiet"]) == 0
+    numbers = json.loads((tmp_path / "r/relaxation.truth.json").read_text())
     assert 64 < numbers["cases"]["instant"]["t_equilibrium_ms"] < 70
     assert (tmp_path / "r/relaxation.png").stat().st_size > 10_000
+    curves = (tmp_path / "r/relaxation.csv").read_text().splitlines()
+    assert curves[0] == "valve,t_s,x_m,v_m_per_s,a_m_per_s2,P_Pa" and len(curves) > 1000
 
 
 def test_simulate_then_summary_end_to_end(tmp_path, capsys):

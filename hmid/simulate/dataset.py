@@ -19,6 +19,7 @@ from hmid.io.log import Log, RigConstants
 from hmid.simulate.effects import Effect, make_effect
 from hmid.simulate.params import Glitches, RigParams, Sensors, SensorSpec
 from hmid.simulate.profiles import Constant, Profile
+from hmid.simulate.relaxation import RelaxationRun
 from hmid.simulate.rig import Trajectory, integrate
 from hmid.simulate.sensors import measure, to_values
 
@@ -63,7 +64,7 @@ class FreeFallLog(_LogSpec):
     release: Annotated[float, Field(ge=0)] = 0.1  # s, the block is held until then
 
 
-LogSpec = Annotated[DynamicLog | FreeFallLog, Field(discriminator="kind")]
+LogSpec = Annotated[DynamicLog | FreeFallLog | RelaxationRun, Field(discriminator="kind")]
 
 #: Free-fall travel is ~0.15 m, beyond the dynamic tests' 20 mm span; the end stop (x = 0) sits
 #: inside the span so a block at rest there is not read as saturation.
@@ -86,7 +87,7 @@ class DatasetConfig(_Frozen):
     free_fall_sensors: Sensors = FREE_FALL_SENSORS
     substeps: Annotated[int, Field(ge=1, le=1000)] = 20
     output: Output = Output()
-    logs: tuple[LogSpec, ...]
+    logs: tuple[LogSpec, ...]  # rig logs, and Ch. 2 relaxation runs (curves + figure)
 
     @model_validator(mode="after")
     def _unique_names(self) -> DatasetConfig:

@@ -40,6 +40,17 @@ class RelaxationParams(BaseModel):
     open_rate: float = Field(10.0, gt=0)  # 1/s: 1 % of the valve area per ms
 
 
+class RelaxationRun(BaseModel):
+    """Data-set entry: the Ch. 2 experiment for the given valve cases (curves, figure, numbers)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    kind: Literal["relaxation"] = "relaxation"
+    name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$", max_length=80)
+    params: RelaxationParams = RelaxationParams()
+    valves: tuple[Literal["instant", "ramp"], ...] = ("instant", "ramp")
+
+
 class Relaxation(NamedTuple):
     """Result of one relaxation: curves from the valve opening to the equilibrium crossing."""
 
@@ -97,6 +108,46 @@ def relax(
     return Relaxation(valve, t, x, v, a, P, t_eq, x_eq)
 
 
+def write_relaxation(run: RelaxationRun, folder) -> list[Relaxation]:
+    """``<name>.csv`` (curves of every valve case), ``<name>.png`` and ``<name>.truth.json``."""
+    import pandas as pd
+
+    from hmid.files import atomic_path, write_json
+
+    results = [relax(run.params, valve) for valve in run.valves]
+    curves = pd.concat(
+        pd.DataFrame(
+            {
+                "valve": r.valve,
+                "t_s": r.t,
+                "x_m": r.x,
+                "v_m_per_s": r.v,
+                "a_m_per_s2": r.a,
+                "P_Pa": r.P,
+            }
+        )
+        for r in results
+    )
+    csv = folder / f"{run.name}.csv"
+    with atomic_path(csv) as tmp:
+        curves.to_csv(tmp, index=False, float_format="%.10g")
+    figure = folder / f"{run.name}.png"
+    with atomic_path(figure) as tmp:
+        plot_relaxations(results, tmp)
+    cases = {
+        r.valve: {
+            "t_equilibrium_ms": r.t_eq * 1e3,
+            "peak_speed_m_s": float(abs(r.v).max()),
+            "peak_pressure_after_opening_kPa": float(r.P[1:].max() / 1e3),
+        }
+        for r in results
+    }
+    write_json(
+        folder / f"{run.name}.truth.json", {"params": run.params.model_dump(), "cases": cases}
+    )
+    return results
+
+
 def plot_relaxations(results: list[Relaxation], path) -> None:
     """Elongation, velocity, acceleration and pressure curves of each valve case (one PNG)."""
     import matplotlib
@@ -116,5 +167,5 @@ def plot_relaxations(results: list[Relaxation], path) -> None:
     axes[-1].set_xlabel("time after the valve opens [ms]")
     fig.suptitle("Thesis Ch. 2: relaxation of a pre-stretched muscle with 10 kg")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)

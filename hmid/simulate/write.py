@@ -3,8 +3,9 @@
 A written set holds, per log, ``<name>.csv`` (or ``.parquet``) in the logger's units and
 ``<name>.truth.json``; a column map per sensor set (``columns-dynamic.yaml``,
 ``columns-free_fall.yaml``, or ``<name>.columns.yaml`` for a log with its own sensors);
-``index.yaml`` listing each log with its kind and column map; and ``dataset.yaml``, the resolved
-config that regenerates the set exactly.
+``index.yaml`` listing each log with its kind and column map; ``dataset.yaml``, the resolved
+config that regenerates the set exactly; and for a Ch. 2 relaxation entry its curves (CSV), figure
+(PNG) and numbers (``<name>.truth.json``).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from hmid.files import atomic_path, fresh_dir, write_json, write_text
 from hmid.io.units import unit_registry
 from hmid.simulate.dataset import DatasetConfig, DynamicLog, FreeFallLog, Simulated, simulate_log
 from hmid.simulate.params import Sensors
+from hmid.simulate.relaxation import RelaxationRun, write_relaxation
 
 _SI = {"t": "s", "P": "Pa", "x": "m", "F": "N"}
 
@@ -91,6 +93,10 @@ def write_dataset(
     for spec in config.logs:
         if progress:
             progress(spec.name)
+        if isinstance(spec, RelaxationRun):
+            write_relaxation(spec, folder)
+            paths.append(folder / f"{spec.name}.csv")
+            continue
         path = write_log(simulate_log(config, spec), folder, config)
         map_name, mapping = _map_file(config, spec)
         maps[map_name] = mapping
