@@ -15,6 +15,8 @@ hmid: system identification of soft fluidic actuators (the Hydro Muscle).
 commands:
   simulate    generate a simulated data set (rig logs + ground truth, or the thesis's Ch. 2
               relaxation curves and figure) from a config
+  run         run an identification experiment: friction, model families, held-out
+              comparison, report (HTML + Markdown + JSON + figures)
   summary     load, validate, denoise and summarise the logs named by an experiment config
 """
 
@@ -37,6 +39,16 @@ def _simulate(args: argparse.Namespace) -> int:
 
         paths = write_dataset(config, args.out, replace=args.replace, progress=step)
     print(f"wrote {len(paths)} simulated entries with their ground truth to {args.out}")
+    return 0
+
+
+def _run(args: argparse.Namespace) -> int:
+    from pipelines.identify import run
+
+    run_dir, metrics = run(Path(args.config), results=Path(args.results), force=args.force)
+    best = metrics["held_out"][0]
+    print(f"best model: {best['model']}, held-out RMSE {best['rmse (held-out)']:.4g} N (one-step)")
+    print(f"report: {run_dir / 'report.html'}")
     return 0
 
 
@@ -67,6 +79,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--replace", action="store_true", help="regenerate into a non-empty folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_simulate)
+
+    p = sub.add_parser(
+        "run",
+        help="run an identification experiment and write its report",
+        description="Run the identification study of an experiment config: load and validate "
+        "the logs, denoise, identify friction from the free-fall logs, reconstruct the muscle "
+        "force, fit every configured model family on the training rows, score all of them on "
+        "the held-out rows, and write results/<experiment>/<run-id>/ (report.html, report.md, "
+        "metrics.json, tables/, figures/, manifest.json, config.yaml). Stage results are cached "
+        "by content hash; --force recomputes everything.",
+    )
+    p.add_argument("config", type=Path, help="experiment config (YAML), e.g. configs/demo.yaml")
+    p.add_argument("--results", default="results", help="results root folder (default: results)")
+    p.add_argument("--force", action="store_true", help="recompute every stage, ignore the cache")
+    p.set_defaults(func=_run)
 
     p = sub.add_parser(
         "summary",

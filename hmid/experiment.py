@@ -10,10 +10,11 @@ import os
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, SerializeAsAny, field_validator
 
 from hmid.config import load_yaml_model
 from hmid.errors import ConfigError
+from hmid.families import FamilySpec, make_family
 from hmid.io.log import RigConstants
 from hmid.signal import (
     Differentiator,
@@ -23,20 +24,23 @@ from hmid.signal import (
     Smoother,
     Window,
 )
+from hmid.split import SplitSpec
 
 Positive = Annotated[float, Field(gt=0)]
 
 
 class _Frozen(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class RigSection(_Frozen):
-    """Rig constants of thesis Ch. 4 (SI units)."""
+    """Rig constants of thesis Ch. 4 (SI units) and where the muscle force is read from."""
 
     M: Positive  # kg, block + force plate
     m1: Positive  # kg, hanging mass
     g: Positive = 9.80665
+    # load_cell: F_m = F_l + friction (eqs. 4.1-4.2); acceleration: no load cell (eq. 5.1)
+    force_source: Literal["load_cell", "acceleration"] = "load_cell"
 
     def constants(self) -> RigConstants:
         return RigConstants(M=self.M, m1=self.m1, g=self.g)
@@ -87,6 +91,21 @@ class DenoiseSection(_Frozen):
     ] = SavitzkyGolaySpec()
 
 
+class FrictionSection(_Frozen):
+    """Friction identification from the free-fall logs and its use in force reconstruction."""
+
+    model: Literal["coulomb", "coulomb_viscous"] = "coulomb"
+    v_min: Positive = 0.02  # m/s, sliding segment of a free fall: |v| above this
+    confidence: Annotated[float, Field(gt=0.5, lt=1)] = 0.95
+    v_deadband: Annotated[float, Field(ge=0)] = 0.002  # m/s, |v| below: stuck, friction unknown
+
+
+class FitSection(_Frozen):
+    """Which reconstructed samples the model families are fitted on."""
+
+    exclude_stuck: bool = True  # static friction is indeterminate while the block sticks
+
+
 class ExperimentConfig(_Frozen):
     """A whole experiment; ``base_dir`` (the config's folder) anchors relative paths."""
 
@@ -95,7 +114,19 @@ class ExperimentConfig(_Frozen):
     rig: RigSection
     logs: Annotated[tuple[LogEntry, ...], Field(min_length=1)]
     denoise: DenoiseSection = DenoiseSection()
+    friction: FrictionSection = FrictionSection()
+    split: SplitSpec = SplitSpec()
+    fit: FitSection = FitSection()
+    models: tuple[SerializeAsAny[FamilySpec], ...] = ()
     base_dir: Path = Path(".")
+
+    @field_validator("models", mode="before")
+    @classmethod
+    def _families(cls, specs):
+        return tuple(make_family(spec, f"models.{i}") for i, spec in enumerate(specs or ()))
+
+    def logs_with_role(self, role: str) -> tuple[LogEntry, ...]:
+        return tuple(entry for entry in self.logs if entry.role == role)
 
     def resolve(self, path: Path) -> Path:
         return path if path.is_absolute() else Path(os.path.normpath(self.base_dir / path))

@@ -61,6 +61,8 @@ def sha256(path: str | Path) -> str:
 def fresh_dir(path: str | Path, *, replace: bool = False) -> Path:
     """Create an empty output folder; an existing non-empty one is an error unless ``replace``."""
     path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise HmidError(f"{path}: exists and is not a folder; choose a folder for the output")
     if path.exists() and any(path.iterdir()) and not replace:
         raise HmidError(
             f"{path}: output folder exists and is not empty; choose another folder "

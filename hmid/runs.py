@@ -30,7 +30,8 @@ def _now() -> str:
 
 
 def git_state(cwd: Path | None = None) -> dict[str, object]:
-    """Commit hash and dirty flag of the working tree hmid runs in (None outside git)."""
+    """Commit hash and dirty flag of hmid's own source tree (None outside git)."""
+    cwd = cwd or Path(__file__).resolve().parent
     try:
         run = lambda *a: subprocess.run(  # noqa: E731
             ["git", *a], cwd=cwd, capture_output=True, text=True, timeout=10, check=True
@@ -75,6 +76,7 @@ class Manifest:
     seed: int
     inputs: dict[str, str] = field(default_factory=dict)
     stages: dict[str, float] = field(default_factory=dict)
+    cache: dict[str, bool] = field(default_factory=dict)  # stage -> read from the cache
     started: str = field(default_factory=_now)
 
     def add_input(self, path: Path) -> None:
@@ -100,10 +102,13 @@ class Manifest:
                 "started": self.started,
                 "finished": _now(),
                 "stage_wall_s": {k: round(v, 4) for k, v in self.stages.items()},
+                "stage_cached": self.cache,
             },
         )
 
 
 def config_json(config) -> str:
     """Canonical JSON of a pydantic config (hash input and manifest entry)."""
-    return json.dumps(config.model_dump(mode="json"), sort_keys=True)
+    # where the config file sits (base_dir) is provenance, not content: it must not change the id
+    exclude = {"base_dir"} if "base_dir" in type(config).model_fields else None
+    return json.dumps(config.model_dump(mode="json", exclude=exclude), sort_keys=True)

@@ -97,10 +97,7 @@ def markdown(summaries: list[LogSummary], title: str) -> str:
 
 def plot_overview(logs: dict[str, Log], path: Path) -> None:
     """P, x, v and F against time for each log, one column per log."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # object-oriented: no global backend switch
 
     rows = [
         ("P", 1e-3, "P [kPa]"),
@@ -108,7 +105,8 @@ def plot_overview(logs: dict[str, Log], path: Path) -> None:
         ("v", 1e3, "v [mm/s]"),
         ("F", 1.0, "F [N]"),
     ]
-    fig, axes = plt.subplots(len(rows), len(logs), figsize=(3.2 * len(logs), 8), squeeze=False)
+    fig = Figure(figsize=(3.2 * len(logs), 8))
+    axes = fig.subplots(len(rows), len(logs), squeeze=False)
     for j, (name, log) in enumerate(logs.items()):
         axes[0, j].set_title(name, fontsize=9)
         for i, (channel, scale, label) in enumerate(rows):
@@ -123,4 +121,3 @@ def plot_overview(logs: dict[str, Log], path: Path) -> None:
         axes[-1, j].set_xlabel("t [s]")
     fig.tight_layout()
     fig.savefig(path, dpi=90)
-    plt.close(fig)

@@ -192,8 +192,26 @@ def _parse_csv(data: bytes, columns: ColumnMap, source: str) -> tuple[pd.DataFra
     except (ValueError, OverflowError) as err:  # pandas' ParserError is a ValueError
         raise LogError(f"{source}: cannot parse as a table: {_one_line(err)}") from None
     if columns.header:
+        _check_unique_header(data, sep, columns, source)
         frame.columns = [str(label).strip() for label in frame.columns]
     return frame, sep
+
+
+def _check_unique_header(data: bytes, sep: str, columns: ColumnMap, source: str) -> None:
+    """pandas renames a repeated header name ('P', 'P.1'); a mapped name must be unambiguous."""
+    header = pd.read_csv(
+        io.BytesIO(data), sep=sep, header=None, nrows=1, skiprows=columns.skip_rows,
+        comment=columns.comment, dtype=str, engine="c",
+    ).iloc[0]  # fmt: skip
+    names = [str(cell).strip() for cell in header]
+    for channel, spec in columns.channels.items():
+        hits = [i for i, name in enumerate(names) if name == spec.column]
+        if len(hits) > 1:
+            raise LogError(
+                f"{source}: column {spec.column!r} (channel {channel}) appears {len(hits)} times "
+                f"in the header (positions {hits}); rename one, or map by position with "
+                "header: false"
+            )
 
 
 def _not_utf8(data: bytes) -> str:

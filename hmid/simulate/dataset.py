@@ -28,15 +28,15 @@ Positive = Annotated[float, Field(gt=0)]
 
 
 class _Frozen(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class _LogSpec(_Frozen):
     name: Name
-    duration: Positive  # s
+    duration: Annotated[float, Field(gt=0, le=3600)]  # s
     effects: tuple[dict[str, Any], ...] = ()  # undeclared extra physics, see hmid.simulate.effects
     sensors: Sensors | None = None  # overrides the data set's sensors for this log
-    seed: int | None = None  # overrides the seed derived from the data set's seed and the name
+    seed: Annotated[int, Field(ge=0)] | None = None  # overrides the derived seed
 
     @field_validator("effects")
     @classmethod
@@ -63,6 +63,14 @@ class FreeFallLog(_LogSpec):
     x0: Positive = 0.15  # m, start position on the rail
     release: Annotated[float, Field(ge=0)] = 0.1  # s, the block is held until then
 
+    @model_validator(mode="after")
+    def _released_in_time(self) -> FreeFallLog:
+        if self.release >= self.duration:
+            raise ValueError(
+                f"release={self.release} s must come before duration={self.duration} s"
+            )
+        return self
+
 
 LogSpec = Annotated[DynamicLog | FreeFallLog | RelaxationRun, Field(discriminator="kind")]
 
@@ -71,17 +79,37 @@ LogSpec = Annotated[DynamicLog | FreeFallLog | RelaxationRun, Field(discriminato
 FREE_FALL_SENSORS = Sensors(x=SensorSpec(lo=-0.01, hi=0.1948, noise=1.0e-4))
 
 
+class LoggerUnits(_Frozen):
+    """The unit the logger writes each channel in (checked against the channel's dimension)."""
+
+    t: str = "ms"
+    P: str = "kPa"
+    x: str = "mm"
+    F: str = "N"
+
+    @model_validator(mode="after")
+    def _known_units(self) -> LoggerUnits:
+        from hmid.io.units import si_unit
+
+        for channel in ("t", "P", "x", "F"):
+            si_unit(getattr(self, channel), channel)  # UnitError (a ValueError) names the problem
+        return self
+
+    def __getitem__(self, channel: str) -> str:
+        return getattr(self, channel)
+
+
 class Output(_Frozen):
     """How the logger writes files: format and the unit of each column."""
 
     format: Literal["csv", "parquet"] = "csv"
-    units: dict[Literal["t", "P", "x", "F"], str] = {"t": "ms", "P": "kPa", "x": "mm", "F": "N"}
+    units: LoggerUnits = LoggerUnits()
 
 
 class DatasetConfig(_Frozen):
     """A simulated data set: rig, sensors, output format and the logs to generate."""
 
-    seed: int
+    seed: Annotated[int, Field(ge=0)]
     rig: RigParams = RigParams()
     sensors: Sensors = Sensors()
     free_fall_sensors: Sensors = FREE_FALL_SENSORS
@@ -90,11 +118,34 @@ class DatasetConfig(_Frozen):
     logs: tuple[LogSpec, ...]  # rig logs, and Ch. 2 relaxation runs (curves + figure)
 
     @model_validator(mode="after")
-    def _unique_names(self) -> DatasetConfig:
+    def _consistent(self) -> DatasetConfig:
         names = [log.name for log in self.logs]
         dupes = sorted({n for n in names if names.count(n) > 1})
         if dupes:
             raise ValueError(f"log names must be unique; repeated: {dupes}")
+        for spec in self.logs:
+            if isinstance(spec, RelaxationRun):
+                continue
+            sensors = spec.sensors or (
+                self.free_fall_sensors if isinstance(spec, FreeFallLog) else self.sensors
+            )
+            if spec.duration * sensors.rate < 10:
+                raise ValueError(f"log {spec.name!r}: duration gives fewer than 10 samples")
+            if isinstance(spec, FreeFallLog) and not (
+                self.rig.x_min < spec.x0 <= self.rig.x_max and sensors.x.lo < spec.x0 < sensors.x.hi
+            ):
+                raise ValueError(
+                    f"log {spec.name!r}: x0={spec.x0} m must lie on the rail "
+                    f"({self.rig.x_min}, {self.rig.x_max}] and inside the x sensor's span"
+                )
+        # the explicit valve and SLS steps are exact, but one substep must resolve the rig's
+        # fastest mechanics (~12 Hz ringing): keep the substep well below the relaxation times
+        dt_sub = 1.0 / (self.sensors.rate * self.substeps)
+        if dt_sub > 0.1 * min(self.rig.muscle.tau, self.rig.valve.tau):
+            raise ValueError(
+                f"substep {dt_sub:.2g} s is too long for the muscle/valve time constants; "
+                "raise substeps"
+            )
         return self
 
     def seed_for(self, spec: DynamicLog | FreeFallLog) -> int:

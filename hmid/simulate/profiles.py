@@ -18,7 +18,7 @@ Positive = Annotated[float, Field(gt=0)]
 
 
 class _Profile(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     def command(self, t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         raise NotImplementedError
@@ -34,6 +34,12 @@ class Cycles(_Profile):
     duty: Annotated[float, Field(gt=0, lt=1)] = 0.5  # fraction of the period at high
     ramp: Annotated[float, Field(ge=0)] = 0.2  # s, commanded ramp on each edge
 
+    @model_validator(mode="after")
+    def _fits_in_period(self) -> Cycles:
+        if 2 * self.ramp + self.duty * self.period > self.period:
+            raise ValueError("2 ramp + duty period must not exceed the period")
+        return self
+
     def command(self, t, rng):
         phase = np.mod(t, self.period)
         up, hold = self.ramp, self.duty * self.period
@@ -46,7 +52,9 @@ class Steps(_Profile):
     """A staircase up through ``levels`` and back down, each held for ``hold`` seconds."""
 
     kind: Literal["steps"] = "steps"
-    levels: tuple[Pressure, ...] = (3.0e4, 8.0e4, 1.3e5, 1.8e5, 2.3e5)
+    levels: Annotated[tuple[Pressure, ...], Field(min_length=1)] = (
+        3.0e4, 8.0e4, 1.3e5, 1.8e5, 2.3e5,
+    )  # fmt: skip
     hold: Positive = 1.5
 
     def command(self, t, rng):

@@ -23,11 +23,13 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from scipy.integrate import solve_ivp
 
+from hmid.errors import SimulationError
+
 
 class RelaxationParams(BaseModel):
     """The Ch. 2 rig and muscle (thesis values)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     k: float = Field(5885.0, gt=0)  # N/m, latex core
     m1: float = Field(10.0, gt=0)  # kg, hanging mass
@@ -36,14 +38,14 @@ class RelaxationParams(BaseModel):
     A_v: float = Field(3.017e-4, gt=0)  # m^2, valve bore (20 mm)
     rho: float = Field(1000.0, gt=0)  # kg/m^3, water
     g: float = 9.80665
-    P0: float = Field(1.0e5, ge=0)  # Pa, gauge pressure that pre-stretches the muscle
+    P0: float = Field(5.0e4, gt=0)  # Pa, pre-stretch pressure (not in the thesis summary)
     open_rate: float = Field(10.0, gt=0)  # 1/s: 1 % of the valve area per ms
 
 
 class RelaxationRun(BaseModel):
     """Data-set entry: the Ch. 2 experiment for the given valve cases (curves, figure, numbers)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     kind: Literal["relaxation"] = "relaxation"
     name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$", max_length=80)
@@ -99,7 +101,9 @@ def relax(
         rtol=1e-9, atol=[1e-12, 1e-10], max_step=1e-4,
     )  # fmt: skip
     if not sol.success or not sol.t_events[0].size:
-        raise RuntimeError(f"relaxation ({valve}) did not reach equilibrium in {t_max} s")
+        raise SimulationError(
+            f"relaxation ({valve}) did not reach equilibrium within {t_max} s; check the params"
+        )
     t_eq = float(sol.t_events[0][0])
     t = np.linspace(0.0, t_eq, n_points)
     x, v = sol.sol(t)
@@ -150,12 +154,10 @@ def write_relaxation(run: RelaxationRun, folder) -> list[Relaxation]:
 
 def plot_relaxations(results: list[Relaxation], path) -> None:
     """Elongation, velocity, acceleration and pressure curves of each valve case (one PNG)."""
-    import matplotlib
+    from matplotlib.figure import Figure  # object-oriented: no global backend switch
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(4, 1, figsize=(7, 9), sharex=True)
+    fig = Figure(figsize=(7, 9))
+    axes = fig.subplots(4, 1, sharex=True)
     rows = [("x", 1e3, "elongation [mm]"), ("v", 1.0, "velocity [m/s]"),
             ("a", 1.0, "acceleration [m/s²]"), ("P", 1e-3, "gauge pressure [kPa]")]  # fmt: skip
     for r in results:
@@ -168,4 +170,3 @@ def plot_relaxations(results: list[Relaxation], path) -> None:
     fig.suptitle("Thesis Ch. 2: relaxation of a pre-stretched muscle with 10 kg")
     fig.tight_layout()
     fig.savefig(path, dpi=110, format="png")
-    plt.close(fig)

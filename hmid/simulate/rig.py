@@ -88,7 +88,9 @@ def _muscle_force(c: _Constants, effects, t, x, q, P):
 
 def _substep(c: _Constants, effects, dt, held, P_cmd, state):
     t, x, v, q, P, stuck = state
-    P = P + jnp.clip((P_cmd - P) / c.valve_tau, -c.slew, c.slew) * dt
+    # exact first-order step (stable for any tau), then the valve's flow limit
+    target = P_cmd + (P - P_cmd) * jnp.exp(-dt / c.valve_tau)
+    P = P + jnp.clip(target - P, -c.slew * dt, c.slew * dt)
     F_app = _muscle_force(c, effects, t, x, q, P) - c.m1 * c.g
     mass = c.M + c.m1
 
@@ -206,6 +208,12 @@ def integrate(
         out = [np.asarray(o) for o in out]
     P, x, v, a, F_m, friction, q, stuck, contact, tension = out
     t = np.arange(1, n + 1) / rate
+    bad = ~(np.isfinite(x) & np.isfinite(v) & np.isfinite(P) & np.isfinite(F_m))
+    if bad.any():
+        raise SimulationError(
+            f"the simulation left finite values at t = {t[np.argmax(bad)]:.4f} s; check the "
+            "rig parameters (stiffness, masses) and the substeps"
+        )
     slack = np.flatnonzero(tension < 0)
     if slack.size:
         k = slack[0]

@@ -49,7 +49,8 @@ def column_map(sensors: Sensors, units: dict[str, str], channels: tuple[str, ...
         out[name] = {
             "column": column_name(name, units[name]),
             "unit": units[name],
-            "range": [float(lo), float(hi)],
+            # rounded like the written data, so a sample at a rail compares equal to the limit
+            "range": [float(f"{lo:.10g}"), float(f"{hi:.10g}")],
         }
     return {"delimiter": ",", "header": True, "channels": out}
 

@@ -291,3 +291,10 @@ def test_accepted_long_gap_is_flagged_not_hidden(tmp_path):
     assert len(log) == len(t)  # nothing dropped or filled
     (flag,) = log.flags
     assert "row 4" in flag and "worst 0.25 s (25.0 x)" in flag
+
+
+def test_a_mapped_header_name_given_twice_is_an_error(tmp_path):
+    path = tmp_path / "dup.csv"
+    path.write_text("time,p,p,pos\n0,1,2,3\n10,1,2,3\n20,1,2,3\n")
+    with pytest.raises(LogError, match=r"column 'p' \(channel P\) appears 2 times"):
+        read_log(path, COLUMNS)

@@ -57,6 +57,7 @@ def test_viscous_friction_adds_b_v_while_sliding():
     sim = _simulate([{"kind": "viscous", "b": 5.0}])
     tr = sim.trajectory
     sliding = ~tr.stuck & (np.abs(tr.v) > 5e-3)
+    assert sliding.sum() > 1000
     expected = np.sign(tr.v) * 0.35 + 5.0 * tr.v
     # friction is evaluated at the velocity one substep (1/20 ms) before the logged v
     atol = 5.0 * np.abs(tr.a[sliding]) / (1000.0 * 20) + 1e-12
@@ -68,6 +69,7 @@ def test_stribeck_raises_breakaway_and_sticking(clean):
     assert sim.trajectory.stuck.mean() > clean.trajectory.stuck.mean()
     tr = sim.trajectory
     fast = ~tr.stuck & (np.abs(tr.v) > 0.015)  # 5 v_s: the Stribeck excess has decayed
+    assert fast.sum() > 1000
     np.testing.assert_allclose(np.abs(tr.friction[fast]), 0.35, atol=0.3 * np.exp(-25) + 1e-9)
 
 
@@ -75,6 +77,7 @@ def test_pressure_friction_scales_with_pressure():
     sim = _simulate([{"kind": "pressure_friction", "mu": 2e-6}])
     tr = sim.trajectory
     sliding = ~tr.stuck & (np.abs(tr.v) > 1e-3)
+    assert sliding.sum() > 1000
     np.testing.assert_allclose(np.abs(tr.friction[sliding]), 0.35 + 2e-6 * tr.P[sliding], rtol=1e-9)
 
 
