@@ -99,7 +99,11 @@ class PolynomialModel(ForceModel):
     family = "polynomial"
 
     def __init__(
-        self, terms: tuple[Term | str, ...] | str, confidence: float = 0.95, scale: bool = True
+        self,
+        terms: tuple[Term | str, ...] | str,
+        confidence: float = 0.95,
+        scale: bool = True,
+        errors: str = "ols",
     ) -> None:
         self._terms = _resolve_terms(terms)
         for variable in {v for term in self._terms for v in term.variables}:
@@ -110,9 +114,12 @@ class PolynomialModel(ForceModel):
             raise ConfigError(f"confidence must lie strictly between 0 and 1, got {confidence!r}")
         if not isinstance(scale, bool):
             raise ConfigError(f"scale must be True or False, got {scale!r}")
+        if errors not in ("ols", "hac"):
+            raise ConfigError(f"errors must be 'ols' or 'hac', got {errors!r}")
         self.terms = terms if isinstance(terms, str) else self._terms
         self.confidence = float(confidence)
         self.scale = scale
+        self.errors = errors
 
     @property
     def name(self) -> str:
@@ -147,6 +154,13 @@ class PolynomialModel(ForceModel):
         exog = self._design(X, scales)
         has_const = Term() in self._terms
         result = OLS(y, exog, hasconst=has_const).fit()
+        self.hac_lags_ = None
+        if self.errors == "hac":
+            # Newey-West errors with the lag window set by how long the residuals stay correlated
+            self.hac_lags_ = hac_lags(np.asarray(result.resid))
+            result = OLS(y, exog, hasconst=has_const).fit(
+                cov_type="HAC", cov_kwds={"maxlags": self.hac_lags_}
+            )
 
         factor = np.array([term.scale_factor(scales) for term in self._terms])
         self.result_ = result
@@ -202,7 +216,12 @@ class PolynomialModel(ForceModel):
                 f"rank-deficient design: rank {rank} < {p} terms; some coefficients are not "
                 "identifiable from these rows (e.g. a variable that does not vary)"
             )
-        if self.durbin_watson_ < DURBIN_WATSON_LIMIT:
+        if self.durbin_watson_ < DURBIN_WATSON_LIMIT and self.hac_lags_ is not None:
+            found.append(
+                f"residuals autocorrelated in row order (Durbin-Watson {self.durbin_watson_:.2f}): "
+                f"standard errors and intervals are Newey-West (HAC, {self.hac_lags_} lags)"
+            )
+        elif self.durbin_watson_ < DURBIN_WATSON_LIMIT:
             found.append(
                 f"residuals autocorrelated in row order (Durbin-Watson {self.durbin_watson_:.2f} "
                 f"< {DURBIN_WATSON_LIMIT}): OLS standard errors and confidence intervals are too "
@@ -265,3 +284,17 @@ def fit_table(models: Iterable[ForceModel]) -> pd.DataFrame:
             }
         )
     return pd.DataFrame(rows)
+
+
+def hac_lags(residual: np.ndarray) -> int:
+    """Newey-West lag window: the first lag at which the residual autocorrelation falls inside
+    its white-noise band 2/sqrt(n), at least the usual 4 (n/100)^(2/9), at most n/10."""
+    from statsmodels.tsa.stattools import acf
+
+    n = residual.size
+    floor = max(1, int(4 * (n / 100) ** (2 / 9)))
+    cap = max(floor, n // 10)
+    rho = acf(residual, nlags=min(cap, n - 1), fft=True)
+    inside = np.flatnonzero(np.abs(rho[1:]) < 2 / np.sqrt(n))
+    first = int(inside[0]) + 1 if inside.size else cap
+    return int(min(cap, max(floor, first)))
