@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml constraints.txt
 
 ## demo: set up .venv and run the main job on the shipped demo data
 demo: $(STAMP)
-	$(BIN)/hmid summary configs/demo.yaml
+	$(BIN)/hmid run configs/demo.yaml
 
 ## test: set up .venv, lint, and run the test suite
 test: $(STAMP)

@@ -69,6 +69,16 @@ class Log:
         object.__setattr__(self, "meta", MappingProxyType(dict(self.meta)))
         object.__setattr__(self, "flags", tuple(self.flags))
 
+    # read-only mappings do not pickle; stage caches pickle logs
+    def __getstate__(self) -> dict:
+        return self.__dict__ | {"units": dict(self.units), "meta": dict(self.meta)}
+
+    def __setstate__(self, state: dict) -> None:
+        for name, value in state.items():
+            if name in ("units", "meta"):
+                value = MappingProxyType(value)
+            object.__setattr__(self, name, value)
+
     # -- access -----------------------------------------------------------------------------
     def __getitem__(self, channel: str) -> np.ndarray:
         """The channel's samples as a read-only float64 array."""

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from types import MappingProxyType
 
 import numpy as np
 import pandas as pd
@@ -164,7 +163,7 @@ class PolynomialModel(ForceModel):
 
         factor = np.array([term.scale_factor(scales) for term in self._terms])
         self.result_ = result
-        self.scales_ = MappingProxyType(scales)
+        self.scales_ = dict(scales)  # a plain dict: fitted models are pickled by the stage cache
         self.term_names_ = tuple(term.name for term in self._terms)
         self.coef_ = np.asarray(result.params) / factor
         self.bse_ = np.asarray(result.bse) / factor

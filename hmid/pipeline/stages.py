@@ -108,15 +108,22 @@ def reconstruct(config: ExperimentConfig, denoise: dict[str, LoadedLog], frictio
 class Split:
     train: FitData
     validation: FitData
-    excluded_stuck: int  # training + validation samples left out because the block was stuck
+    excluded_stuck: int  # samples left out: block stuck, or within a derivative reach of an end
 
 
 def split(config: ExperimentConfig, reconstruct: dict[str, LoadedLog]) -> Split:
     """Training and held-out rows, the same for every family."""
+    from hmid.friction import derivative_reach
+
     masks = validation_masks({n: len(item.log) for n, item in reconstruct.items()}, config.split)
+    differentiator = config.denoise.derivative.build()
     frames = []
     for name, item in reconstruct.items():
         log = item.log
+        # within one derivative reach of a log's ends v is less accurate and its sign unreliable
+        reach = derivative_reach(log.t, differentiator)
+        inner = np.zeros(len(log), dtype=bool)
+        inner[reach : len(log) - reach] = True
         frames.append(
             pd.DataFrame(
                 {
@@ -126,7 +133,7 @@ def split(config: ExperimentConfig, reconstruct: dict[str, LoadedLog]) -> Split:
                     "v": log["v"],
                     "P": log["P_s"],
                     "F_m": log["F_m"],
-                    "sliding": log["sliding"] > 0.5,
+                    "sliding": (log["sliding"] > 0.5) & inner,
                     "validation": masks[name],
                 }
             )

@@ -1,0 +1,193 @@
+"""Friction models: small frozen strategies that evaluate friction(v) and fit a free fall.
+
+A free fall is fitted in the *travel frame* ``u = s x`` (``s = ±1``, the direction the block
+slides), where the hanging weight drives the block and friction opposes it (thesis eq. 4.1 with
+the muscle disconnected, ``F_m = 0``):
+
+    (M + m1) u'' = m1 g - Fc - b u'        (b = 0 for pure Coulomb friction)
+
+so each model only sees a monotone, accelerating travel ``u(tau)`` on the sliding segment, with
+``tau = t - t_ref`` centred on the segment. Both models fit positions, never estimated
+derivatives: residuals are then sensor noise and quantisation (white), so the least-squares
+standard errors are honest; fitting ``a_est`` against ``v`` instead would use residuals that the
+derivative's smoothing window correlates over dozens of samples, and understate the intervals.
+
+A plug-in model subclasses :class:`FrictionModel` and implements its four methods.
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Mapping
+from dataclasses import dataclass
+from math import factorial
+from types import MappingProxyType
+from typing import ClassVar
+
+import numpy as np
+import statsmodels.api as sm
+from scipy.optimize import curve_fit
+
+from hmid.io.log import RigConstants
+
+
+@dataclass(frozen=True)
+class FallFit:
+    """A model fitted to the travel ``u(tau)`` of one sliding segment (travel frame, SI)."""
+
+    params: Mapping[str, float]  # friction parameters, in the model's ``param_names`` order
+    cov: np.ndarray  # their covariance (p x p)
+    u0: float  # travel at tau = 0, m
+    w0: float  # travel speed at tau = 0, m/s
+    fitted: np.ndarray  # fitted travel at each sample, m
+    dof: int  # residual degrees of freedom
+
+
+@dataclass(frozen=True)
+class FrictionModel(abc.ABC):
+    """A friction law ``friction(v)`` (N, signed along +x, opposing motion) and its fall fit."""
+
+    name: ClassVar[str]
+    param_names: ClassVar[tuple[str, ...]]
+    units: ClassVar[Mapping[str, str]]
+
+    @abc.abstractmethod
+    def friction(self, v: np.ndarray, params: Mapping[str, float]) -> np.ndarray:
+        """Friction force (N) at velocity ``v`` (m/s); its sign follows ``v``."""
+
+    @abc.abstractmethod
+    def fit_fall(self, tau: np.ndarray, u: np.ndarray, rig: RigConstants) -> FallFit:
+        """Least-squares fit of the travel ``u`` (m) at times ``tau`` (s, centred)."""
+
+    @abc.abstractmethod
+    def travel(
+        self, tau: np.ndarray, u0: float, w0: float, params: Mapping[str, float], rig: RigConstants
+    ) -> np.ndarray:
+        """Travel (m) predicted at ``tau`` from ``u0``, ``w0`` at tau = 0 and the parameters."""
+
+    @abc.abstractmethod
+    def load_cell_design(self, speed: np.ndarray) -> np.ndarray:
+        """Regressors (n x p) such that the friction magnitude at ``speed`` = design @ params."""
+
+
+def _mass(rig: RigConstants) -> float:
+    return rig.M + rig.m1
+
+
+@dataclass(frozen=True)
+class Coulomb(FrictionModel):
+    """Coulomb friction (thesis Ch. 4): ``friction(v) = sign(v) Fc``.
+
+    Free fall: constant acceleration, ``u = u0 + w0 tau + a tau^2 / 2`` fitted by statsmodels OLS;
+    ``Fc = m1 g - (M + m1) a``, with the OLS standard error of ``a`` scaled by ``M + m1``.
+    """
+
+    name: ClassVar[str] = "coulomb"
+    param_names: ClassVar[tuple[str, ...]] = ("Fc",)
+    units: ClassVar[Mapping[str, str]] = MappingProxyType({"Fc": "N"})
+
+    def friction(self, v, params):
+        return np.sign(np.asarray(v, dtype=float)) * params["Fc"]
+
+    def fit_fall(self, tau, u, rig):
+        design = np.column_stack([np.ones_like(tau), tau, 0.5 * tau**2])
+        ols = sm.OLS(u, design).fit()
+        mass = _mass(rig)
+        Fc = rig.m1 * rig.g - mass * ols.params[2]
+        cov = np.array([[mass**2 * ols.bse[2] ** 2]])
+        return FallFit(
+            {"Fc": float(Fc)}, cov, float(ols.params[0]), float(ols.params[1]),
+            np.asarray(ols.fittedvalues), int(ols.df_resid),
+        )  # fmt: skip
+
+    def travel(self, tau, u0, w0, params, rig):
+        a = (rig.m1 * rig.g - params["Fc"]) / _mass(rig)
+        return u0 + w0 * tau + 0.5 * a * tau**2
+
+    def load_cell_design(self, speed):
+        return np.ones((len(speed), 1))
+
+
+# -- phi functions of the viscous solution --------------------------------------------------------
+_TERMS = 14
+_C1 = np.array([(-1) ** n / factorial(n + 1) for n in range(_TERMS)])
+_C2 = np.array([(-1) ** n / factorial(n + 2) for n in range(_TERMS)])
+_D1 = np.arange(1, _TERMS) * _C1[1:]
+_D2 = np.arange(1, _TERMS) * _C2[1:]
+
+
+def _phi(z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``phi1 = (1 - e^-z)/z``, ``phi2 = (z - 1 + e^-z)/z^2`` and their derivatives in z.
+
+    Taylor series for |z| < 0.1, closed forms elsewhere. The closed form of phi2 cancels
+    catastrophically near 0 (its error grows as eps/z^2), which is harmless for the values but
+    ruins finite-difference Jacobians: with them the interval on b came out 4x too narrow when
+    the true b is near 0. So the Jacobian is analytic.
+    """
+    z = np.asarray(z, dtype=float)
+    small = np.abs(z) < 0.1
+    zs = np.where(small, 1.0, z)
+    p1 = -np.expm1(-zs) / zs
+    p2 = (zs + np.expm1(-zs)) / zs**2
+    d1 = (np.exp(-zs) - p1) / zs
+    d2 = (p1 - 2.0 * p2) / zs
+    powers = z[..., None] ** np.arange(_TERMS)
+    return (
+        np.where(small, powers @ _C1, p1),
+        np.where(small, powers @ _C2, p2),
+        np.where(small, powers[..., :-1] @ _D1, d1),
+        np.where(small, powers[..., :-1] @ _D2, d2),
+    )
+
+
+@dataclass(frozen=True)
+class CoulombViscous(FrictionModel):
+    """Coulomb plus viscous friction: ``friction(v) = sign(v) Fc + b v``.
+
+    Free fall: ``u'' = alpha - k u'`` with ``alpha = (m1 g - Fc)/(M + m1)``, ``k = b/(M + m1)``,
+    solved exactly, ``u = u0 + w0 tau phi1(k tau) + alpha tau^2 phi2(k tau)``, and fitted by
+    nonlinear least squares (:func:`scipy.optimize.curve_fit`, Levenberg-Marquardt, analytic
+    Jacobian, started from the Coulomb fit). The covariance is the usual asymptotic one scaled by
+    the residual variance. ``b`` is not bounded at 0, so a fit to Coulomb-only data returns b near
+    0 with an honest interval on either side.
+    """
+
+    name: ClassVar[str] = "coulomb_viscous"
+    param_names: ClassVar[tuple[str, ...]] = ("Fc", "b")
+    units: ClassVar[Mapping[str, str]] = MappingProxyType({"Fc": "N", "b": "N s/m"})
+
+    def friction(self, v, params):
+        v = np.asarray(v, dtype=float)
+        return np.sign(v) * params["Fc"] + params["b"] * v
+
+    def _curve(self, rig):
+        mass, drive = _mass(rig), rig.m1 * rig.g
+
+        def model(tau, u0, w0, Fc, b):
+            p1, p2, _, _ = _phi(b / mass * tau)
+            return u0 + w0 * tau * p1 + (drive - Fc) / mass * tau**2 * p2
+
+        def jacobian(tau, u0, w0, Fc, b):
+            p1, p2, d1, d2 = _phi(b / mass * tau)
+            alpha = (drive - Fc) / mass
+            d_b = (w0 * tau**2 * d1 + alpha * tau**3 * d2) / mass
+            return np.column_stack([np.ones_like(tau), tau * p1, -(tau**2) * p2 / mass, d_b])
+
+        return model, jacobian
+
+    def fit_fall(self, tau, u, rig):
+        start = Coulomb().fit_fall(tau, u, rig)
+        model, jacobian = self._curve(rig)
+        p0 = [start.u0, start.w0, start.params["Fc"], 0.0]
+        popt, pcov = curve_fit(model, tau, u, p0=p0, jac=jacobian, method="lm", maxfev=2000)
+        return FallFit(
+            {"Fc": float(popt[2]), "b": float(popt[3])}, np.asarray(pcov)[2:, 2:],
+            float(popt[0]), float(popt[1]), model(tau, *popt), len(tau) - 4,
+        )  # fmt: skip
+
+    def travel(self, tau, u0, w0, params, rig):
+        model, _ = self._curve(rig)
+        return model(np.asarray(tau, dtype=float), u0, w0, params["Fc"], params["b"])
+
+    def load_cell_design(self, speed):
+        return np.column_stack([np.ones(len(speed)), np.abs(speed)])

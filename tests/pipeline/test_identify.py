@@ -1,0 +1,142 @@
+"""The identification study end to end on a small simulated data set."""
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from hmid.config import load_yaml_model
+from hmid.errors import ConfigError
+from hmid.experiment import load_experiment
+from hmid.simulate.dataset import DatasetConfig
+from hmid.simulate.write import write_dataset
+from pipelines.identify import run
+
+DATASET = """
+seed: 77
+logs:
+  - {name: sine, kind: dynamic, duration: 8, profile: {kind: sine, frequency: 0.5}}
+  - {name: chirp, kind: dynamic, duration: 8, profile: {kind: chirp, f0: 0.2, f1: 1.5}}
+  - {name: ff1, kind: free_fall, duration: 0.3, x0: 0.15}
+  - {name: ff2, kind: free_fall, duration: 0.3, x0: 0.17}
+"""
+
+EXPERIMENT = {
+    "name": "small",
+    "seed": 1,
+    "rig": {"M": 0.25, "m1": 0.5},
+    "logs": [
+        {"path": "data/sine.csv", "columns": "data/columns-dynamic.yaml", "role": "dynamic"},
+        {"path": "data/chirp.csv", "columns": "data/columns-dynamic.yaml", "role": "dynamic"},
+        {"path": "data/ff1.csv", "columns": "data/columns-free_fall.yaml", "role": "free_fall"},
+        {"path": "data/ff2.csv", "columns": "data/columns-free_fall.yaml", "role": "free_fall"},
+    ],
+    "friction": {"model": "coulomb", "v_min": 0.05},
+    "split": {"kind": "time_block", "validation_fraction": 0.25},
+    "models": [{"family": "polynomial", "variants": ["quadratic_xv", "cubic_xvP"]}],
+}
+
+
+@pytest.fixture(scope="module")
+def workspace(tmp_path_factory) -> Path:
+    root = tmp_path_factory.mktemp("identify")
+    (root / "set.yaml").write_text(DATASET)
+    write_dataset(load_yaml_model(root / "set.yaml", DatasetConfig), root / "data")
+    return root
+
+
+def _config(root: Path, **changes) -> Path:
+    data = json.loads(json.dumps(EXPERIMENT)) | changes
+    tag = hashlib.sha256(json.dumps(changes, sort_keys=True).encode()).hexdigest()[:10]
+    path = root / f"exp-{tag}.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.fixture(scope="module")
+def first_run(workspace):
+    results = workspace / "results"
+    return results, *run(_config(workspace), results=results)
+
+
+def test_run_writes_a_complete_folder(first_run):
+    _, run_dir, metrics = first_run
+    for name in ("report.html", "report.md", "metrics.json", "manifest.json", "config.yaml",
+                 "tables/fit_table.csv", "tables/friction.csv", "tables/held_out_scores.csv",
+                 "figures/friction.png", "figures/scores.png"):  # fmt: skip
+        assert (run_dir / name).is_file(), name
+    assert {m["model"] for m in metrics["held_out"]} == {"poly:quadratic_xv", "poly:cubic_xvP"}
+    manifest = json.loads((run_dir / "manifest.json").read_text())
+    assert set(manifest["stage_wall_s"]) >= {"load", "friction", "fit", "compare", "report"}
+    assert len(manifest["inputs_sha256"]) == 7  # config + 4 logs + 2 column maps
+
+
+def test_friction_estimate_covers_the_simulator_truth(first_run, workspace):
+    _, _, metrics = first_run
+    truth = json.loads((workspace / "data/ff1.truth.json").read_text())
+    lo, hi = metrics["friction"]["ci"]["Fc"]
+    assert lo <= truth["friction_truth"]["coulomb_N"] <= hi
+
+
+def test_held_out_rows_are_only_the_last_quarter_of_each_log(first_run):
+    _, _, metrics = first_run
+    rows = metrics["rows"]
+    n_total = 2 * 8000
+    # 25 % held out of each log, minus the stuck samples excluded from both sets
+    assert rows["validation"] + rows["train"] + rows["stuck_excluded"] == n_total
+    assert rows["validation"] <= 0.25 * n_total + 2
+    assert rows["validation"] >= 0.25 * n_total - rows["stuck_excluded"]
+
+
+def test_richer_model_wins_on_held_out_data(first_run):
+    _, _, metrics = first_run
+    best = metrics["held_out"][0]
+    assert best["model"] == "poly:cubic_xvP"
+    assert best["r2 (held-out)"] > 0.5
+
+
+def test_same_config_same_numbers_new_folder_cached_stages(first_run, workspace):
+    results, run_dir, metrics = first_run
+    run_dir2, metrics2 = run(_config(workspace), results=results)
+    assert run_dir2 != run_dir and run_dir.is_dir()  # never overwritten
+    assert metrics2 == metrics
+    manifest = json.loads((run_dir2 / "manifest.json").read_text())
+    assert all(manifest["stage_cached"].values())
+    forced_dir, forced = run(_config(workspace), results=results, force=True)
+    assert forced == metrics
+    assert not any(json.loads((forced_dir / "manifest.json").read_text())["stage_cached"].values())
+
+
+def test_changing_the_split_recomputes_from_the_split_on(first_run, workspace):
+    results, _, _ = first_run
+    path = _config(workspace, split={"kind": "time_block", "validation_fraction": 0.4})
+    run_dir, metrics = run(path, results=results)
+    cached = json.loads((run_dir / "manifest.json").read_text())["stage_cached"]
+    assert cached["load"] and cached["denoise"] and cached["friction"] and cached["reconstruct"]
+    assert not cached["split"] and not cached["fit"] and not cached["compare"]
+    assert metrics["rows"]["validation"] > 0.3 * 16000
+
+
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        ({"frictoin": {}}, "'frictoin': unknown key"),
+        ({"rig": {"M": -1, "m1": 0.5}}, "'rig.M': input should be greater than 0"),
+        ({"models": [{"family": "polynomial", "variants": ["cubic"]}]}, "models.0"),
+        ({"models": [{"family": "splines"}]}, "family 'splines' is unknown"),
+        ({"split": {"kind": "logs"}}, "'split': kind 'logs' needs validation_logs"),
+        ({"friction": {"model": "stribeck"}}, "'friction.model'"),
+    ],
+)
+def test_config_errors_name_the_key(workspace, change, match):
+    with pytest.raises(ConfigError, match=match):
+        load_experiment(_config(workspace, **change))
+
+
+def test_rig_without_load_cell_uses_acceleration(workspace):
+    rig = {"M": 0.25, "m1": 0.5, "force_source": "acceleration"}
+    _, metrics = run(_config(workspace, rig=rig), results=workspace / "results-acc")
+    assert np.isfinite(metrics["held_out"][0]["rmse (held-out)"])
