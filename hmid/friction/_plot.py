@@ -16,43 +16,36 @@ def plot_free_fall(logs: Sequence[Log], estimate: FrictionEstimate, path: str | 
     Top: each log's measured x (dots) and its own fitted model over the sliding segment (line).
     Bottom: the x residuals on the segment, in mm. Logs are matched to fits by ``log.source``.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # object-oriented: no global backend switch
 
     fits = {r.source: r for r in estimate.per_log}
-    fig, (ax_x, ax_r) = plt.subplots(2, 1, sharex=True, figsize=(7, 6), height_ratios=(2, 1))
-    try:
-        for k, log in enumerate(logs):
-            if log.source not in fits:
-                raise LogError(
-                    f"{log.source}: not among the logs this friction estimate was fitted to"
-                )
-            r = fits[log.source]
-            t, x = log.t, log["x"]
-            seg = (t >= r.t_start) & (t <= r.t_end)
-            tau = t[seg] - r.t_ref
-            u = estimate.model.travel(
-                tau, r.direction * r.x_ref, r.direction * r.v_ref, r.params, estimate.rig
-            )
-            x_fit = r.direction * u
-            colour = f"C{k % 10}"
-            label = ", ".join(
-                f"{p} = {r.params[p]:.3g} {estimate.units[p]}" for p in estimate.model.param_names
-            )
-            ax_x.plot(t, x * 1e3, ".", ms=2, color=colour, alpha=0.4)
-            ax_x.plot(t[seg], x_fit * 1e3, "-", color=colour, label=f"{log.source}: {label}")
-            ax_r.plot(t[seg], (x[seg] - x_fit) * 1e3, ".", ms=2, color=colour)
-        ax_x.set_ylabel("x [mm]")
-        ax_x.set_title(f"Free-fall friction fits ({estimate.model.name})")
-        ax_x.legend(fontsize="small")
-        ax_r.axhline(0.0, color="k", lw=0.8)
-        ax_r.set_ylabel("residual [mm]")
-        ax_r.set_xlabel("t [s]")
-        fig.tight_layout()
-        path = Path(path)
-        fig.savefig(path)
-    finally:
-        plt.close(fig)
+    fig = Figure(figsize=(7, 6))
+    ax_x, ax_r = fig.subplots(2, 1, sharex=True, height_ratios=(2, 1))
+    for k, log in enumerate(logs):
+        if log.source not in fits:
+            raise LogError(f"{log.source}: not among the logs this friction estimate was fitted to")
+        r = fits[log.source]
+        t, x = log.t, log["x"]
+        seg = (t >= r.t_start) & (t <= r.t_end)
+        tau = t[seg] - r.t_ref
+        u = estimate.model.travel(
+            tau, r.direction * r.x_ref, r.direction * r.v_ref, r.params, estimate.rig
+        )
+        x_fit = r.direction * u
+        colour = f"C{k % 10}"
+        label = ", ".join(
+            f"{p} = {r.params[p]:.3g} {estimate.units[p]}" for p in estimate.model.param_names
+        )
+        ax_x.plot(t, x * 1e3, ".", ms=2, color=colour, alpha=0.4)
+        ax_x.plot(t[seg], x_fit * 1e3, "-", color=colour, label=f"{log.source}: {label}")
+        ax_r.plot(t[seg], (x[seg] - x_fit) * 1e3, ".", ms=2, color=colour)
+    ax_x.set_ylabel("x [mm]")
+    ax_x.set_title(f"Free-fall friction fits ({estimate.model.name})")
+    ax_x.legend(fontsize="small")
+    ax_r.axhline(0.0, color="k", lw=0.8)
+    ax_r.set_ylabel("residual [mm]")
+    ax_r.set_xlabel("t [s]")
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path)
     return path
