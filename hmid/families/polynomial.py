@@ -4,21 +4,40 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field
+from pydantic import BaseModel, ConfigDict, Field
 
 from hmid.families.base import FamilySpec, FitData, Fitted
 
 THESIS_VARIANTS = ("quadratic_xv", "cubic_xv", "quadratic_xvP", "cubic_xvP")
 
 
+class CustomTerms(BaseModel):
+    """Every monomial in ``variables`` up to total ``degree``, single variables capped by
+    ``max_degree`` (e.g. ``{P: 1}``: pressure only linearly, as in the thesis)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$")]
+    variables: tuple[Literal["x", "v", "P"], ...] = ("x", "v", "P")
+    degree: Annotated[int, Field(ge=1, le=6)] = 3
+    max_degree: dict[Literal["x", "v", "P"], Annotated[int, Field(ge=0, le=6)]] = {"P": 1}
+
+    def terms(self):
+        from hmid.models.terms import polynomial_terms
+
+        return polynomial_terms(self.variables, self.degree, self.max_degree)
+
+
 class PolynomialSpec(FamilySpec):
-    """``variants``: named term sets (the thesis's four by default), fitted by OLS."""
+    """``variants``: named term sets (the thesis's four by default), plus ``custom`` term sets;
+    every one fitted by OLS on the same training rows."""
 
     family: Literal["polynomial"] = "polynomial"
     variants: Annotated[
         tuple[Literal["quadratic_xv", "cubic_xv", "quadratic_xvP", "cubic_xvP"], ...],
         Field(min_length=1),
     ] = THESIS_VARIANTS
+    custom: tuple[CustomTerms, ...] = ()
     confidence: Annotated[float, Field(gt=0.5, lt=1)] = 0.95
     scale: bool = True
     # "hac": Newey-West errors. Not the default: with slow periodic regressors and persistent
@@ -30,9 +49,10 @@ class PolynomialSpec(FamilySpec):
         from hmid.models.polynomial import PolynomialModel
 
         fitted = []
-        for variant in self.variants:
+        term_sets = [(v, v) for v in self.variants] + [(c.name, c.terms()) for c in self.custom]
+        for variant, terms in term_sets:
             model = PolynomialModel(
-                terms=variant, confidence=self.confidence, scale=self.scale, errors=self.errors
+                terms=terms, confidence=self.confidence, scale=self.scale, errors=self.errors
             )
             model.fit(train.X, train.y)
             fitted.append(

@@ -136,6 +136,15 @@ def test_config_errors_name_the_key(workspace, change, match):
         load_experiment(_config(workspace, **change))
 
 
+def test_custom_term_sets_are_fitted_and_named(workspace):
+    models = [{"family": "polynomial", "variants": ["cubic_xvP"],
+               "custom": [{"name": "xP2", "variables": ["x", "P"], "degree": 2}]}]  # fmt: skip
+    _, metrics = run(_config(workspace, models=models), results=workspace / "results-custom")
+    fits = {m["model"]: m for m in metrics["fit"]}
+    assert fits["poly:xP2"]["n_params"] == 5  # 1, x, P, x^2, xP (P capped at degree 1)
+    assert fits["poly:cubic_xvP"]["n_params"] == 16
+
+
 def test_rig_without_load_cell_uses_acceleration(workspace):
     rig = {"M": 0.25, "m1": 0.5, "force_source": "acceleration"}
     _, metrics = run(_config(workspace, rig=rig), results=workspace / "results-acc")
