@@ -38,6 +38,9 @@ def plot_model(predictions: pd.DataFrame, model: str, path: Path) -> None:
     grid = fig.add_gridspec(2, 3)
     ax = fig.add_subplot(grid[0, :])
     ax.plot(t_axis, y, ".", ms=1.5, color="0.55", label="measured (reconstructed) F_m")
+    if f"{model} lower" in frame:
+        ax.fill_between(t_axis, frame[f"{model} lower"], frame[f"{model} upper"], color="C0",
+                        alpha=0.25, lw=0, label="posterior predictive band")  # fmt: skip
     ax.plot(t_axis, y_hat, "-", lw=0.8, color="C0", label=f"{model} (one-step)")
     for start, name in marks:
         ax.axvline(start, color="0.8", lw=0.8)

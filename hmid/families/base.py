@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
@@ -24,10 +25,16 @@ FAMILIES: dict[str, type[FamilySpec]] = {}
 
 @dataclass(frozen=True)
 class FitData:
-    """Rows for fitting or scoring: regressors x [m], v [m/s], P [Pa], target F_m [N]."""
+    """Rows for fitting or scoring: regressors x [m], v [m/s], P [Pa], target F_m [N].
 
-    frame: pd.DataFrame  # columns x, v, P, F_m, t, log
+    ``sequences`` holds every dynamic log whole (columns t, x, v, P, F_m, train, validation:
+    the last two mark the rows in each set), for families with memory that must run through
+    the entire record; ``frame`` holds only this set's rows, in log order.
+    """
+
+    frame: pd.DataFrame  # columns log, t, x, v, P, F_m
     role: str  # "train" or "validation"
+    sequences: Mapping[str, pd.DataFrame] = field(default_factory=dict)
 
     @property
     def X(self) -> pd.DataFrame:
@@ -52,7 +59,24 @@ class Fitted:
     notes: tuple[str, ...] = field(default_factory=tuple)
 
     def predict(self, data: FitData) -> np.ndarray:
+        if hasattr(self.model, "predict_rows"):  # models with memory predict from sequences
+            return np.asarray(self.model.predict_rows(data), dtype=float)
         return np.asarray(self.model.predict(data.X), dtype=float)
+
+    def predict_interval(self, data: FitData) -> tuple[np.ndarray, np.ndarray] | None:
+        """A predictive band (lower, upper) on ``data``'s rows, for families that have one."""
+        if hasattr(self.model, "predict_interval_rows"):
+            return self.model.predict_interval_rows(data)
+        return None
+
+
+@dataclass(frozen=True)
+class FitContext:
+    """What a family may need beyond its config: the experiment seed and a persistent folder
+    (the stage cache) for resumable work such as an MCMC chain."""
+
+    seed: int
+    workdir: Path
 
 
 class FamilySpec(BaseModel):
@@ -69,7 +93,7 @@ class FamilySpec(BaseModel):
         if isinstance(default, str) and default:
             FAMILIES[default] = cls
 
-    def fit(self, train: FitData) -> list[Fitted]:
+    def fit(self, train: FitData, context: FitContext) -> list[Fitted]:
         raise NotImplementedError
 
 

@@ -6,7 +6,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from hmid.families.base import FamilySpec, FitData, Fitted
+from hmid.families.base import FamilySpec, FitContext, FitData, Fitted
 
 THESIS_VARIANTS = ("quadratic_xv", "cubic_xv", "quadratic_xvP", "cubic_xvP")
 
@@ -45,7 +45,7 @@ class PolynomialSpec(FamilySpec):
     # narrower); OLS intervals carry a Durbin-Watson warning instead.
     errors: Literal["ols", "hac"] = "ols"
 
-    def fit(self, train: FitData) -> list[Fitted]:
+    def fit(self, train: FitData, context: FitContext) -> list[Fitted]:
         from hmid.models.polynomial import PolynomialModel
 
         fitted = []

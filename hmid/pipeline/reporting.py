@@ -95,16 +95,24 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
     for model in fitted:
         safe = model.name.replace(":", "_")
         _csv(model.coefficients, tables / f"coefficients_{safe}.csv")
+        text = f"`{model.equation}`" + "".join(f"\n\n- {note}" for note in model.notes)
+        extra_tables, extra_figures = [], []
+        if hasattr(model.model, "report_extras"):  # e.g. MCMC diagnostics of a Bayesian family
+            extras = model.model.report_extras(figures, prefix=safe)
+            text += "\n\n" + extras.text if extras.text else ""
+            for frame, caption in extras.tables:
+                _csv(frame, tables / f"{safe}_{len(extra_tables)}.csv")
+                extra_tables.append(Table(frame, caption))
+            extra_figures = [Figure(path, caption) for path, caption in extras.figures]
         coefficient_sections.append(
             Section(
                 model.name,
-                text=f"`{model.equation}`" + "".join(f"\n\n- {note}" for note in model.notes),
+                text=text,
                 tables=(
-                    Table(
-                        model.coefficients,
-                        f"Coefficients of {model.name}: units, standard errors, intervals",
-                    ),
+                    Table(model.coefficients, f"Parameters of {model.name}: units and intervals"),
+                    *extra_tables,
                 ),
+                figures=tuple(extra_figures),
             )
         )
 
@@ -172,7 +180,9 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
                     *model_figures,
                 ),
             ),
-            Section("Coefficients (cf. thesis Table 4.2)", subsections=tuple(coefficient_sections)),
+            Section(
+                "Model parameters (cf. thesis Table 4.2)", subsections=tuple(coefficient_sections)
+            ),
             Section(
                 "Rig friction from free-fall tests",
                 text=f"Model: {config.friction.model}; sliding segments with |v| > "

@@ -10,6 +10,7 @@ Cache files are written atomically, so an interrupted run never leaves a truncat
 from __future__ import annotations
 
 import hashlib
+import inspect
 import json
 import pickle
 import time
@@ -87,6 +88,8 @@ class Runner:
                 cached = True
             else:
                 upstream = {name: artifacts[name] for name in stage.inputs}
+                if "workdir" in inspect.signature(stage.fn).parameters:
+                    upstream["workdir"] = self.cache_dir  # for resumable side work (MCMC chains)
                 artifacts[stage.name] = stage.fn(config, **upstream)
                 with atomic_path(path) as tmp, open(tmp, "wb") as handle:
                     pickle.dump(artifacts[stage.name], handle, protocol=pickle.HIGHEST_PROTOCOL)

@@ -7,6 +7,7 @@ load -> denoise -> friction -> reconstruct -> split -> fit -> compare. Each retu
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -14,7 +15,7 @@ import pandas as pd
 from hmid.denoise import denoise_log
 from hmid.errors import ConfigError
 from hmid.experiment import ExperimentConfig
-from hmid.families import FitData, Fitted
+from hmid.families import FitContext, FitData, Fitted
 from hmid.files import sha256
 from hmid.io import Log, load_column_map, read_log
 from hmid.metrics import score
@@ -140,19 +141,30 @@ def split(config: ExperimentConfig, reconstruct: dict[str, LoadedLog]) -> Split:
         )
     rows = pd.concat(frames, ignore_index=True)
     keep = rows["sliding"] if config.fit.exclude_stuck else np.ones(len(rows), dtype=bool)
+    rows["train"] = keep & ~rows["validation"]
+    rows["validation"] = keep & rows["validation"]
+    sequences = {
+        name: group[["t", "x", "v", "P", "F_m", "train", "validation"]].reset_index(drop=True)
+        for name, group in rows.groupby("log", sort=False)
+    }
     columns = ["log", "t", "x", "v", "P", "F_m"]
-    train = rows.loc[keep & ~rows["validation"], columns].reset_index(drop=True)
-    held = rows.loc[keep & rows["validation"], columns].reset_index(drop=True)
-    return Split(FitData(train, "train"), FitData(held, "validation"), int((~keep).sum()))
+    train = rows.loc[rows["train"], columns].reset_index(drop=True)
+    held = rows.loc[rows["validation"], columns].reset_index(drop=True)
+    return Split(
+        FitData(train, "train", sequences),
+        FitData(held, "validation", sequences),
+        int((~keep).sum()),
+    )
 
 
-def fit(config: ExperimentConfig, split: Split) -> list[Fitted]:
+def fit(config: ExperimentConfig, split: Split, *, workdir: Path) -> list[Fitted]:
     """Every configured family fitted on the same training rows."""
     if not config.models:
         raise ConfigError("models: no model family configured; add e.g. {family: polynomial}")
+    context = FitContext(seed=config.seed, workdir=workdir)
     fitted: list[Fitted] = []
     for spec in config.models:
-        fitted.extend(spec.fit(split.train))
+        fitted.extend(spec.fit(split.train, context))
     return fitted
 
 
@@ -176,5 +188,8 @@ def compare(config: ExperimentConfig, split: Split, fit: list[Fitted]) -> Compar
             | {"r2 (train)": s_train.r2, "rmse (train)": s_train.rmse}
         )
         predictions[model.name] = held
+        band = model.predict_interval(split.validation)
+        if band is not None:
+            predictions[f"{model.name} lower"], predictions[f"{model.name} upper"] = band
     table = pd.DataFrame(rows).sort_values("rmse (held-out)", kind="stable")
     return Comparison(table.reset_index(drop=True), predictions)
