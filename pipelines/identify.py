@@ -24,7 +24,12 @@ STAGES = (
     Stage("friction", s.friction, ("denoise",), _section("friction", "rig", "denoise")),
     Stage("reconstruct", s.reconstruct, ("denoise", "friction"), _section("rig", "friction")),
     Stage("split", s.split, ("reconstruct",), _section("split", "fit")),
-    Stage("fit", s.fit, ("split",), lambda c: [m.model_dump(mode="json") for m in c.models]),
+    Stage(
+        "fit",
+        s.fit,
+        ("split", "friction"),
+        lambda c: {"models": [m.model_dump(mode="json") for m in c.models], "seed": c.seed},
+    ),
     Stage("compare", s.compare, ("split", "fit")),
 )
 

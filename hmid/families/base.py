@@ -72,11 +72,14 @@ class Fitted:
 
 @dataclass(frozen=True)
 class FitContext:
-    """What a family may need beyond its config: the experiment seed and a persistent folder
-    (the stage cache) for resumable work such as an MCMC chain."""
+    """What a family may need beyond its config: the experiment seed, a persistent folder (the
+    stage cache) for resumable work such as an MCMC chain, the rig's constants (M, m1, g) and the
+    identified friction (``friction.friction(v)`` in N), e.g. to build an equation of motion."""
 
     seed: int
     workdir: Path
+    rig: Any = None  # hmid.io.log.RigConstants
+    friction: Any = None  # hmid.friction.FrictionEstimate
 
 
 class FamilySpec(BaseModel):

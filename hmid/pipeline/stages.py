@@ -157,11 +157,11 @@ def split(config: ExperimentConfig, reconstruct: dict[str, LoadedLog]) -> Split:
     )
 
 
-def fit(config: ExperimentConfig, split: Split, *, workdir: Path) -> list[Fitted]:
+def fit(config: ExperimentConfig, split: Split, friction, *, workdir: Path) -> list[Fitted]:
     """Every configured family fitted on the same training rows."""
     if not config.models:
         raise ConfigError("models: no model family configured; add e.g. {family: polynomial}")
-    context = FitContext(seed=config.seed, workdir=workdir)
+    context = FitContext(config.seed, workdir, config.rig.constants(), friction)
     fitted: list[Fitted] = []
     for spec in config.models:
         fitted.extend(spec.fit(split.train, context))

@@ -1,0 +1,115 @@
+"""The data an SLS likelihood reads: concatenated logs as one pytree of float64 arrays.
+
+:class:`SLSData` is passed as an *argument* to the jitted likelihood (never closed over), so a new
+data set of the same length reuses the compiled code. Several logs are concatenated; ``start``
+marks the first sample of each, where the Maxwell arms restart from rest (q = 0) and no velocity
+is taken across the boundary. ``use`` selects the samples that enter the likelihood; the caller
+leaves out stuck samples, held-out rows and a memory warm-up after each log start (the arms start
+at q = 0, which is only right after a long rest).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pandas as pd
+
+from hmid.errors import SignalError, where
+
+_COLUMNS = ("t", "x", "P", "F", "use")
+
+
+class SLSData(NamedTuple):
+    """Concatenated logs (SI units), all arrays of shape (n,).
+
+    ``t`` [s] time (strictly increasing within a log; it may restart between logs), ``x`` [m]
+    elongation, ``P`` [Pa] gauge pressure, ``F`` [N] observed muscle force, ``use`` (bool) the
+    samples in the likelihood, ``start`` (bool) the first sample of each log.
+    """
+
+    t: jax.Array
+    x: jax.Array
+    P: jax.Array
+    F: jax.Array
+    use: jax.Array
+    start: jax.Array
+
+    @property
+    def n(self) -> int:
+        return int(self.t.shape[0])
+
+
+def sls_data(segments: Sequence[pd.DataFrame]) -> SLSData:
+    """Concatenate logs (DataFrames with columns t, x, P, F, use) into one :class:`SLSData`.
+
+    ``t``, ``x`` and ``P`` must be finite everywhere (the memory recursion reads every sample);
+    ``F`` must be finite where ``use`` is true (it is never read elsewhere and is stored as 0
+    there). Raises a one-line :class:`~hmid.errors.SignalError` naming segment, column and row.
+    """
+    if isinstance(segments, pd.DataFrame):
+        segments = [segments]
+    if len(segments) == 0:
+        raise SignalError("sls_data: no segments given; pass a list of DataFrames")
+    parts: dict[str, list[np.ndarray]] = {c: [] for c in (*_COLUMNS, "start")}
+    for i, frame in enumerate(segments):
+        source = f"sls_data segment {i}"
+        if not isinstance(frame, pd.DataFrame):
+            raise SignalError(f"{source}: expected a pandas DataFrame, got {type(frame).__name__}")
+        missing = [c for c in _COLUMNS if c not in frame.columns]
+        if missing:
+            raise SignalError(
+                f"{source}: missing columns {missing}; need {list(_COLUMNS)} (SI units)"
+            )
+        if len(frame) < 2:
+            raise SignalError(f"{source}: has {len(frame)} rows; a log needs at least 2")
+        use = frame["use"].to_numpy()
+        if use.dtype != bool:
+            raise SignalError(
+                f"{where(source, 'use')}must be boolean, got dtype {use.dtype}; "
+                "use a True/False mask"
+            )
+        columns = {}
+        for name in ("t", "x", "P", "F"):
+            try:
+                values = frame[name].to_numpy(dtype="float64")
+            except (TypeError, ValueError):
+                raise SignalError(
+                    f"{where(source, name)}not numeric (dtype {frame[name].dtype})"
+                ) from None
+            finite = np.isfinite(values) | (~use if name == "F" else False)
+            if not finite.all():
+                row = int(np.argmin(finite))
+                extra = " on a used row" if name == "F" else ""
+                raise SignalError(
+                    f"{where(source, name, row)}value {values[row]} is not finite{extra}; "
+                    "drop or interpolate it, or split the log there"
+                )
+            columns[name] = values
+        steps = np.diff(columns["t"])
+        if not (steps > 0).all():
+            row = int(np.argmin(steps > 0)) + 1
+            raise SignalError(
+                f"{where(source, 't', row)}time {columns['t'][row]} does not increase "
+                f"(previous {columns['t'][row - 1]}); sort the log or split it there"
+            )
+        columns["F"] = np.where(use, columns["F"], 0.0)
+        start = np.zeros(len(frame), dtype=bool)
+        start[0] = True
+        for name, values in (*columns.items(), ("use", use), ("start", start)):
+            parts[name].append(values)
+    arrays = {name: np.concatenate(chunks) for name, chunks in parts.items()}
+    if not arrays["use"].any():
+        raise SignalError("sls_data: no sample has use=True; nothing would enter the likelihood")
+    with jax.enable_x64(True):
+        return SLSData(
+            t=jnp.asarray(arrays["t"], dtype=jnp.float64),
+            x=jnp.asarray(arrays["x"], dtype=jnp.float64),
+            P=jnp.asarray(arrays["P"], dtype=jnp.float64),
+            F=jnp.asarray(arrays["F"], dtype=jnp.float64),
+            use=jnp.asarray(arrays["use"], dtype=bool),
+            start=jnp.asarray(arrays["start"], dtype=bool),
+        )
