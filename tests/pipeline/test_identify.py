@@ -145,6 +145,36 @@ def test_custom_term_sets_are_fitted_and_named(workspace):
     assert fits["poly:cubic_xvP"]["n_params"] == 16
 
 
+def test_sls_family_recovers_the_muscle_and_beats_polynomials(workspace):
+    # The simulated muscle IS a cubic SLS: its posterior must land near the simulator's values
+    # and, with its memory, beat every polynomial on held-out data. Sine and chirp logs only
+    # weakly identify the joint scale of A_eff, k1, k2 (x follows P quasi-statically), and noise
+    # in the measured x and P biases that scale: measured up to 8 % on a sine log alone, 2.4 % on
+    # the five mixed demo logs. Hence 12 % here, not the posterior interval.
+    models = [
+        {"family": "polynomial", "variants": ["cubic_xvP"]},
+        {"family": "sls", "stride": 4, "walkers": 16, "max_steps": 1500, "max_seconds": 20},
+    ]
+    run_dir, metrics = run(_config(workspace, models=models), results=workspace / "results-sls")
+    scores = {m["model"]: m for m in metrics["held_out"]}
+    assert scores["sls"]["rmse (held-out)"] < 0.5 * scores["poly:cubic_xvP"]["rmse (held-out)"]
+    table = {r["parameter"]: r for r in _read_csv(run_dir / "tables/coefficients_sls.csv")}
+    truth = {"A_eff": 2e-4, "k1": 3000.0, "k2": 1500.0, "tau": 0.2}
+    for name, value in truth.items():
+        assert abs(float(table[name]["median"]) / value - 1) < 0.12, name
+    for name in ("sls_trace.png", "sls_corner.png"):
+        assert (run_dir / "figures" / name).is_file()
+    held = _read_csv(run_dir / "tables/held_out_scores.csv")
+    assert any(r["model"] == "sls" and "memory" in r["error kind"] for r in held)
+
+
+def _read_csv(path):
+    import csv
+
+    with open(path, newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
 def test_rig_without_load_cell_uses_acceleration(workspace):
     rig = {"M": 0.25, "m1": 0.5, "force_source": "acceleration"}
     _, metrics = run(_config(workspace, rig=rig), results=workspace / "results-acc")

@@ -1,0 +1,472 @@
+"""Ensemble MCMC of a posterior with emcee: seeded, checkpointed to HDF5 as it runs, resumable.
+
+:func:`run_sampler` samples any *vectorised* log-probability ``log_prob(theta) -> (W,)`` with
+``theta`` of shape ``(W, D)`` and returns a :class:`SamplerResult`. ``log_prob`` is only called
+with ``n_walkers // 2`` rows (the sub-ensemble the DE and stretch moves update; start checks are
+padded to it) or ``n_walkers // 4`` (snooker), so a jitted likelihood compiles twice. A NaN
+log-probability counts as ``-inf`` (the proposal is rejected) and is counted in
+``SamplerResult.n_nan``; ``+inf`` is an error.
+
+Randomness: ``np.random.SeedSequence(seed)`` spawns one stream for the initial walker ball and one
+``MT19937`` state for emcee's moves, handed to the sampler explicitly (emcee keeps its own
+``RandomState``; NumPy's global generator is neither read for randomness nor advanced).
+
+Chain file: the walkers are kept in memory and written every ``check_every`` steps (and on an
+interruption) to ``backend_path``, in emcee's ``HDFBackend`` layout (group ``mcmc``, readable with
+``emcee.backends.HDFBackend(path, read_only=True)``) plus a group ``hmid`` holding the
+configuration hash and checkpoints. emcee's own ``HDFBackend`` is not used while sampling: it
+opens the file on every step (~5 ms a step here) and rewrites its random state attribute by
+attribute (h5py deletes then recreates each), so an interruption can leave a state that does not
+match the chain. Here a checkpoint (iteration, random state, acceptance counts, autocorrelation
+references, checksum of the last row) is one attribute with a fresh name, written after the rows
+it covers; resuming starts from the newest checkpoint that parses and matches the chain, so
+"N1 steps, interrupt or stop, resume to N2" gives the same chain, bit for bit, as N2 at once.
+
+Convergence (emcee's recommendation): every ``check_every`` steps the integrated autocorrelation
+time tau is estimated on the whole chain; the run stops when ``N > min_tau_factor * max(tau)``
+and every tau changed by less than ``tau_rtol`` since the previous check. Burn-in is then
+``2 * max(tau)`` steps and thinning ``max(1, min(tau) / 2)``; the effective sample size of each
+parameter is ``n_walkers * (N - burn_in) / tau``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import emcee
+import numpy as np
+import pandas as pd
+from tqdm.auto import tqdm
+
+from hmid.errors import ConfigError
+from hmid.models.sls._chainfile import _state_from_json, _Store
+from hmid.models.sls._errors import SamplerError
+from hmid.models.sls._moves import SnookerMove
+
+__all__ = [
+    "STOP_REASONS",
+    "SamplerConfig",
+    "SamplerError",
+    "SamplerResult",
+    "SnookerMove",
+    "run_sampler",
+]
+
+STOP_REASONS = ("converged", "step budget", "time budget")
+BALL_REDRAWS = 3  # non-finite walkers of the initial ball are re-drawn this often before failing
+_FORMAT = 1
+
+
+@dataclass(frozen=True)
+class SamplerConfig:
+    """Settings of :func:`run_sampler`, checked at construction (:class:`ConfigError`).
+
+    ``moves``: ``"de"`` (default) proposes with differential evolution (``DEMove``, weight 0.8)
+    and its snooker variant (:class:`SnookerMove`, emcee's ``DESnookerMove`` corrected, 0.2):
+    proposals are differences of other walkers, so they take the posterior's scale and linear
+    correlations without tuning and open a small start ball quickly; the snooker move helps with
+    curved posteriors. ``"stretch"`` is emcee's default affine-invariant stretch move (robust;
+    on the toy problems here its autocorrelation time is 3-4 times DE's).
+
+    ``n_walkers`` must be even (the ensemble splits into two equal halves, each proposing from
+    the other) and at least ``2 * D`` (checked by :func:`run_sampler`). ``max_steps`` bounds the
+    chain's total length (over resumed runs too); ``max_seconds`` bounds one call's wall time.
+    ``init_scale`` is the walker ball's standard deviation relative to ``|theta0|`` (absolute
+    where a component of ``theta0`` is 0); :func:`run_sampler`'s ``ball_scale`` overrides it.
+    ``n_walkers``, ``moves``, ``seed`` and the ball define the chain (with ``theta0``, the names
+    and a fingerprint): a chain file made with others is refused; the other settings may change
+    between resumed runs.
+    """
+
+    n_walkers: int = 32
+    moves: Literal["de", "stretch"] = "de"
+    max_steps: int = 20_000
+    max_seconds: float = 3600.0
+    min_tau_factor: float = 50.0
+    tau_rtol: float = 0.01
+    check_every: int = 200
+    seed: int = 0
+    init_scale: float = 1e-3
+    progress: bool = False
+
+    def __post_init__(self) -> None:
+        for name, low in (("n_walkers", 4), ("max_steps", 1), ("check_every", 1), ("seed", 0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
+                raise ConfigError(f"sampler: {name} must be an integer >= {low}, got {value!r}")
+        if self.n_walkers % 2:
+            raise ConfigError(
+                f"sampler: n_walkers must be even (the ensemble splits into two equal halves "
+                f"that propose from each other), got {self.n_walkers}"
+            )
+        for name in ("max_seconds", "min_tau_factor", "tau_rtol", "init_scale"):
+            value = getattr(self, name)
+            ok = isinstance(value, int | float) and not isinstance(value, bool) and value > 0
+            if not ok or (name != "max_seconds" and not math.isfinite(value)):
+                raise ConfigError(f"sampler: {name} must be a positive number, got {value!r}")
+        if self.moves not in ("de", "stretch"):
+            raise ConfigError(f"sampler: moves must be 'de' or 'stretch', got {self.moves!r}")
+        if not isinstance(self.progress, bool):
+            raise ConfigError(f"sampler: progress must be true or false, got {self.progress!r}")
+
+    def emcee_moves(self) -> list[tuple[emcee.moves.Move, float]]:
+        if self.moves == "stretch":
+            return [(emcee.moves.StretchMove(), 1.0)]
+        return [(emcee.moves.DEMove(), 0.8), (SnookerMove(), 0.2)]
+
+
+@dataclass(frozen=True, eq=False)
+class SamplerResult:
+    """A finished (or budget-stopped) run of :func:`run_sampler`.
+
+    ``chain`` (draws, D) and ``log_prob`` (draws,) are the flat posterior draws after
+    ``burn_in`` steps and thinning by ``thin``; ``walkers`` (n_steps, n_walkers, D) and
+    ``walkers_log_prob`` the whole chain for trace plots. ``tau`` and ``ess`` are per parameter;
+    ``tau_history`` rows are ``(iteration, tau_1..tau_D)`` at each convergence check.
+    ``wall_s`` is this call's wall time; ``stop_reason`` one of :data:`STOP_REASONS`.
+    """
+
+    names: tuple[str, ...]
+    chain: np.ndarray
+    log_prob: np.ndarray
+    acceptance: np.ndarray
+    tau: np.ndarray
+    ess: np.ndarray
+    n_steps: int
+    burn_in: int
+    thin: int
+    stop_reason: str
+    wall_s: float
+    backend_path: Path | None
+    walkers: np.ndarray
+    walkers_log_prob: np.ndarray
+    tau_history: np.ndarray
+    n_nan: int
+
+    @property
+    def n_walkers(self) -> int:
+        return self.walkers.shape[1]
+
+    @property
+    def acceptance_mean(self) -> float:
+        return float(np.mean(self.acceptance))
+
+    @property
+    def converged(self) -> bool:
+        return self.stop_reason == "converged"
+
+    def metrics(self) -> dict[str, Any]:
+        """Scalar diagnostics for a run manifest."""
+        return {
+            "stop_reason": self.stop_reason,
+            "n_steps": self.n_steps,
+            "n_walkers": self.n_walkers,
+            "burn_in": self.burn_in,
+            "thin": self.thin,
+            "n_draws": len(self.chain),
+            "acceptance_mean": self.acceptance_mean,
+            "tau_max": float(np.max(self.tau)),
+            "ess_min": float(np.min(self.ess)),
+            "wall_s": self.wall_s,
+            "n_nan": self.n_nan,
+        }
+
+    def summary(
+        self,
+        units: Mapping[str, str] | None = None,
+        confidence: float = 0.90,
+        transform: Callable[[np.ndarray], Mapping[str, np.ndarray]] | None = None,
+    ) -> pd.DataFrame:
+        """Median, equal-tailed credible interval (``lower``, ``upper``), mean, sd and unit.
+
+        ``transform`` maps the draws (draws, D) to physical parameters, name -> (draws,), e.g.
+        ``lambda th: {"k": np.exp(th[:, 0]), ...}``; ``units`` must then name those parameters.
+        """
+        if not 0 < confidence < 1:
+            raise ConfigError(f"summary: confidence must lie in (0, 1), got {confidence!r}")
+        if transform is None:
+            values = {name: self.chain[:, i] for i, name in enumerate(self.names)}
+        else:
+            values = {name: np.asarray(v, float) for name, v in transform(self.chain).items()}
+        missing = [name for name in values if units is not None and name not in units]
+        if missing:
+            raise ConfigError(f"summary: units has no entry for {', '.join(missing)}")
+        tail = (1 - confidence) / 2
+        rows = {
+            name: {
+                "median": float(np.median(v)),
+                "lower": float(np.quantile(v, tail)),
+                "upper": float(np.quantile(v, 1 - tail)),
+                "mean": float(np.mean(v)),
+                "sd": float(np.std(v, ddof=1)),
+                "unit": "" if units is None else units[name],
+            }
+            for name, v in values.items()
+        }
+        return pd.DataFrame.from_dict(rows, orient="index").rename_axis("parameter")
+
+    def draws(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        """``n`` rows of ``chain`` (without replacement while there are enough) for predictions."""
+        index = rng.choice(len(self.chain), size=n, replace=n > len(self.chain))
+        return self.chain[index]
+
+
+def run_sampler(
+    log_prob: Callable[[np.ndarray], np.ndarray],
+    theta0: np.ndarray,
+    config: SamplerConfig | None = None,
+    *,
+    backend_path: str | Path | None = None,
+    names: Sequence[str],
+    fingerprint: str = "",
+    ball_scale: np.ndarray | None = None,
+) -> SamplerResult:
+    """Sample ``log_prob`` from a ball around ``theta0`` until converged or out of budget.
+
+    With ``backend_path`` the chain is saved as it runs; a file holding a chain of the same
+    configuration (``config``'s chain-defining fields, ``theta0``, ``names`` and
+    ``fingerprint``, e.g. a hash of the data and model settings) is resumed, anything else is
+    refused with :class:`SamplerError`. On resume ``log_prob`` is re-evaluated at the last
+    walkers and must reproduce the stored values (else the target changed: an error).
+
+    ``ball_scale`` (D,), if given, is the walker ball's standard deviation per coordinate (e.g.
+    the start fit's standard errors) instead of ``config.init_scale * |theta0|``.
+    """
+    cfg = config if config is not None else SamplerConfig()
+    theta0 = np.asarray(theta0, dtype=float)
+    names = tuple(names)
+    if theta0.ndim != 1 or len(names) != theta0.size or len(set(names)) != len(names):
+        raise ConfigError(f"sampler: theta0 {theta0.shape} needs one distinct name each: {names}")
+    if not np.all(np.isfinite(theta0)):
+        raise SamplerError(f"sampler: theta0 is not finite: {_format(theta0, names)}")
+    n_walkers, dim = cfg.n_walkers, theta0.size
+    if n_walkers < 2 * dim:
+        raise ConfigError(
+            f"sampler: n_walkers={n_walkers} is fewer than 2·D = {2 * dim}: each half of the "
+            f"ensemble must span the {dim}-dimensional space the other half moves in"
+        )
+    if ball_scale is None:
+        radius = cfg.init_scale * np.where(theta0 != 0, np.abs(theta0), 1.0)
+    else:
+        radius = np.asarray(ball_scale, dtype=float)
+        if radius.shape != theta0.shape or not np.all(np.isfinite(radius) & (radius > 0)):
+            raise ConfigError(f"sampler: ball_scale must be {dim} positive numbers: {radius}")
+    target = _LogProb(log_prob, theta0, n_walkers // 2)
+    meta = {
+        "format": _FORMAT,
+        "n_walkers": n_walkers,
+        "moves": cfg.moves,
+        "seed": int(cfg.seed),
+        "ball_scale": [float(v).hex() for v in radius],
+        "theta0": [float(v).hex() for v in theta0],
+        "names": list(names),
+        "fingerprint": fingerprint,
+    }
+    store = None if backend_path is None else _Store(Path(backend_path), meta, n_walkers, dim)
+    checkpoint = None if store is None else store.prepare()
+
+    backend = emcee.backends.Backend()
+    backend.reset(n_walkers, dim)
+    if checkpoint is None:
+        ball_seed, move_seed = np.random.SeedSequence(cfg.seed).spawn(2)
+        ball_rng = np.random.default_rng(ball_seed)
+        coords, logp = _initial_ball(target, theta0, radius, n_walkers, ball_rng, names)
+        random_state = np.random.RandomState(np.random.MT19937(move_seed)).get_state()
+        history: list[list[float]] = []
+        tau, tau_ref = None, None
+        if store is not None:
+            store.initialise()
+    else:
+        backend.chain, backend.log_prob, history = store.read(checkpoint)
+        backend.iteration = checkpoint["iteration"]
+        backend.accepted = np.asarray(checkpoint["accepted"], dtype=float)
+        coords, logp = backend.chain[-1], backend.log_prob[-1]
+        random_state = _state_from_json(checkpoint["random_state"])
+        _check_same_target(target, coords, logp, store.path)
+        target.n_nan = checkpoint["n_nan"]
+        tau, tau_ref = _array(checkpoint["tau"]), _array(checkpoint["tau_ref"])
+    backend.random_state = random_state
+    sampler = emcee.EnsembleSampler(
+        n_walkers, dim, target, moves=cfg.emcee_moves(), backend=backend, vectorize=True
+    )
+    sampler.random_state = random_state  # emcee's setter fails silently: verify it took
+    if not np.array_equal(sampler.random_state[1], random_state[1]):
+        raise SamplerError("sampler: emcee did not accept the seeded random state")
+    state = emcee.State(coords, log_prob=logp, random_state=random_state)
+
+    start = time.perf_counter()
+    it = backend.iteration
+    stop = None
+    if checkpoint is not None and _converged(tau, _array(checkpoint["tau_prior"]), it, cfg):
+        stop = "converged"  # nothing to add (under this call's convergence settings)
+    bar = tqdm(
+        total=cfg.max_steps,
+        initial=min(it, cfg.max_steps),
+        disable=not cfg.progress,
+        desc="MCMC",
+        unit="step",
+    )
+    with bar:
+        while stop is None:
+            if it >= cfg.max_steps:
+                stop = "step budget"
+                break
+            if time.perf_counter() - start >= cfg.max_seconds:
+                stop = "time budget"
+                break
+            saved, n_nan = it, target.n_nan
+            end = min(cfg.max_steps, (it // cfg.check_every + 1) * cfg.check_every)
+            steps = sampler.sample(state, iterations=end - it, skip_initial_state_check=True)
+            try:
+                for new_state in steps:
+                    state, it, n_nan = new_state, it + 1, target.n_nan
+                    bar.update(1)
+                    if time.perf_counter() - start >= cfg.max_seconds:
+                        break
+            except BaseException:  # keep the steps done; the last yielded state is consistent
+                if store is not None and it > saved:
+                    store.save(backend, state, saved, it, n_nan, None, tau_ref, tau_ref, history)
+                raise
+            tau_prior, tau = tau_ref, _tau(backend.get_chain())
+            if it % cfg.check_every == 0:
+                tau_ref = tau
+            history.append([it, *tau])
+            bar.set_postfix(tau_max=f"{tau.max():.1f}")
+            if store is not None:
+                store.save(
+                    backend, state, saved, it, target.n_nan, tau, tau_prior, tau_ref, history
+                )
+            if _converged(tau, tau_prior, it, cfg):
+                stop = "converged"
+    return _result(
+        backend, tau, history, names, stop, time.perf_counter() - start, store, target.n_nan
+    )
+
+
+class _LogProb:
+    """The user's log-probability with its output checked; NaN -> -inf (counted)."""
+
+    def __init__(self, fn: Callable[[np.ndarray], np.ndarray], pad: np.ndarray, batch: int):
+        self.fn, self.pad, self.batch, self.n_nan = fn, pad, batch, 0
+
+    def padded(self, theta: np.ndarray) -> np.ndarray:
+        """Evaluate any number of rows in batches of ``batch`` (padding with ``pad``)."""
+        n = len(theta)
+        rows = -(-n // self.batch) * self.batch
+        full = np.concatenate([theta, np.broadcast_to(self.pad, (rows - n, theta.shape[1]))])
+        return np.concatenate([self(full[i : i + self.batch]) for i in range(0, rows, self.batch)])[
+            :n
+        ]
+
+    def __call__(self, theta: np.ndarray) -> np.ndarray:
+        theta = np.asarray(theta, dtype=float)
+        out = np.asarray(self.fn(theta), dtype=float)
+        if out.shape != (len(theta),):
+            raise SamplerError(
+                f"sampler: log_prob must return shape ({len(theta)},) for theta of shape "
+                f"{theta.shape}, got {out.shape}"
+            )
+        if np.any(np.isposinf(out)):
+            bad = theta[np.argmax(np.isposinf(out))]
+            raise SamplerError(f"sampler: log_prob returned +inf at theta = {bad.tolist()}")
+        nan = np.isnan(out)
+        self.n_nan += int(nan.sum())
+        return np.where(nan, -np.inf, out)
+
+
+def _initial_ball(target, theta0, radius, n_walkers, rng, names):
+    start = target.padded(theta0[None, :])[0]
+    if not np.isfinite(start):
+        raise SamplerError(
+            f"sampler: log_prob at theta0 ({_format(theta0, names)}) is {start}; start from a "
+            f"point inside the prior support (e.g. the least-squares fit)"
+        )
+    coords = theta0 + radius * rng.standard_normal((n_walkers, theta0.size))
+    logp = target.padded(coords)
+    for _ in range(BALL_REDRAWS):
+        bad = ~np.isfinite(logp)
+        if not bad.any():
+            break
+        coords[bad] = theta0 + radius * rng.standard_normal((int(bad.sum()), theta0.size))
+        logp[bad] = target.padded(coords[bad])
+    bad = np.flatnonzero(~np.isfinite(logp))
+    if bad.size:
+        shown = "; ".join(_format(coords[i], names) for i in bad[:3])
+        raise SamplerError(
+            f"sampler: {bad.size} of {n_walkers} walkers of the initial ball have a non-finite "
+            f"log_prob after {BALL_REDRAWS} re-draws, e.g. at {shown}; move theta0 away from the "
+            f"support's edge or shrink the ball (init_scale or ball_scale)"
+        )
+    if not emcee.walkers_independent(coords):
+        raise SamplerError(
+            "sampler: the initial walkers are linearly dependent; enlarge the ball (init_scale or "
+            "ball_scale)"
+        )
+    return coords, logp
+
+
+def _check_same_target(target, coords, logp, path):
+    now = target.padded(coords)
+    same = np.isclose(now, logp, rtol=1e-6, atol=1e-6) | ((now == logp) & np.isinf(now))
+    if not same.all():
+        delta = np.nanmax(np.abs(now - logp))
+        raise SamplerError(
+            f"{path}: log_prob at the stored chain's last walkers differs from the stored values "
+            f"(max |difference| {delta:.3g}): the data or model changed; delete the file or "
+            f"choose another backend_path"
+        )
+
+
+def _tau(chain: np.ndarray) -> np.ndarray:
+    """Integrated autocorrelation time per parameter; ``N`` where it cannot be estimated."""
+    n = len(chain)
+    if n < 2:
+        return np.full(chain.shape[-1], float(max(n, 1)))
+    with np.errstate(all="ignore"):
+        tau = emcee.autocorr.integrated_time(chain, tol=0)
+    return np.where(np.isfinite(tau) & (tau > 0), tau, float(n))
+
+
+def _converged(tau, tau_prior, n, cfg) -> bool:
+    if tau is None or tau_prior is None or n <= cfg.min_tau_factor * np.max(tau):
+        return False
+    return bool(np.all(np.abs(tau_prior - tau) / tau < cfg.tau_rtol))
+
+
+def _result(backend, tau, history, names, stop, wall, store, n_nan) -> SamplerResult:
+    chain, logp = backend.get_chain(), backend.get_log_prob()
+    n, n_walkers, dim = chain.shape
+    tau = _tau(chain) if tau is None else tau
+    burn = min(int(2 * np.max(tau)), n // 2)
+    thin = max(1, int(0.5 * np.min(tau)))
+    return SamplerResult(
+        names=names,
+        chain=chain[burn::thin].reshape(-1, dim),
+        log_prob=logp[burn::thin].reshape(-1),
+        acceptance=backend.accepted / n,
+        tau=tau,
+        ess=n_walkers * (n - burn) / tau,
+        n_steps=n,
+        burn_in=burn,
+        thin=thin,
+        stop_reason=stop,
+        wall_s=wall,
+        backend_path=None if store is None else store.path,
+        walkers=chain,
+        walkers_log_prob=logp,
+        tau_history=np.asarray(history, dtype=float).reshape(-1, dim + 1),
+        n_nan=n_nan,
+    )
+
+
+def _format(theta: np.ndarray, names: Sequence[str]) -> str:
+    return ", ".join(f"{name}={value:.6g}" for name, value in zip(names, theta, strict=True))
+
+
+def _array(values) -> np.ndarray | None:
+    return None if values is None else np.asarray(values, dtype=float)
