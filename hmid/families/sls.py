@@ -21,7 +21,7 @@ from pydantic import Field
 
 from hmid.families.base import FamilySpec, FitContext, FitData, Fitted
 
-KIND = "one-step (force from measured x, P and the memory they imply)"
+KIND = "one-step, with memory"  # force from measured x, P and the memory that x implies
 
 
 @dataclass(frozen=True)

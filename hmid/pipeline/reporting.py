@@ -167,7 +167,10 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
                 text="All errors are **one-step**: the muscle force predicted from the measured "
                 "x, v and P at each held-out sample, compared with the force reconstructed from "
                 "the load cell and the identified friction (thesis eqs. 4.1-4.2). Held-out rows "
-                f"are the {config.split.kind.replace('_', ' ')} split, never used for fitting.",
+                f"are the {config.split.kind.replace('_', ' ')} split, never used for fitting. "
+                "A model **with memory** (SLS) carries its internal state through each log from "
+                "the measured x alone, never from measured force; free-run simulations of x, "
+                "where a family has them, are in its own section.",
                 tables=(
                     Table(comparison.scores, "Held-out errors per model (sorted by RMSE)"),
                     Table(

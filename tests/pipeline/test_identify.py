@@ -165,7 +165,7 @@ def test_sls_family_recovers_the_muscle_and_beats_polynomials(workspace):
     for name in ("sls_trace.png", "sls_corner.png"):
         assert (run_dir / "figures" / name).is_file()
     held = _read_csv(run_dir / "tables/held_out_scores.csv")
-    assert any(r["model"] == "sls" and "memory" in r["error kind"] for r in held)
+    assert any(r["model"] == "sls" and r["error kind"] == "one-step, with memory" for r in held)
 
 
 def _read_csv(path):

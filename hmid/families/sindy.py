@@ -1,0 +1,231 @@
+"""The SINDy family: a sparse force map F_m(x, v, P) discovered with pysindy, with per-term
+inclusion probabilities and intervals, and a free run of the resulting equation of motion.
+
+Design (issue 4): the muscle force is a sparse regression ``F_m = Theta(x, v, P) xi`` on the
+sliding training rows (target: the pipeline's reconstructed F_m), scored one-step like the
+polynomial family; the equation of motion ``(M + m1) a = F_m - m1 g - friction(v)`` uses the
+identified friction and is run free on each held-out block, driven by the measured pressure.
+SINDy-with-control on the state [x, v] was not chosen: its target would be the estimated
+acceleration (the noisiest signal of the rig), and the stuck samples (a = 0 while the forces do not
+balance the sign(v) friction) would sit in the target itself. See
+:mod:`hmid.models.sindy` for the regression, threshold rule, ensemble and integrator.
+
+Config (``models: [{family: sindy, ...}]``)::
+
+    name: stlsq                 # the fitted model is called "sindy:<name>"
+    variables: [x, v, P]        # polynomial library variables
+    degree: 3                   # total degree, 1-4
+    max_degree: {P: 1}          # caps per variable (pressure linear, as in the thesis)
+    friction_terms: true        # add tanh(v / v0) to the library
+    v0: 0.001                   # m/s, smooth-sign speed (library and free-run friction)
+    stick_speed: 0.01           # m/s, rows with |v| below are left out (stick, transitions)
+    keep: [x, P]                # terms never thresholded (physics prior; [] lets CV decide)
+    threshold: cv               # or a number: RMS contribution / std(F_m) below which terms go
+    cv: {folds: 5, points: 30, rule: one_se}
+    ridge: 0.0                  # STLSQ ridge, per training row
+    ensemble: {models: 50, block_seconds: 0.25, confidence: 0.95}
+    seed_offset: 0              # ensemble seed = experiment seed + seed_offset
+    velocity: {kind: pipeline}  # or {kind: smoothed_finite_difference, window_s: 0.05,
+                                #     polyorder: 3} (pysindy, on each whole log)
+    free_run: {enabled: true, substeps: 2, max_seconds: 60}
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from hmid.errors import ConfigError
+from hmid.families.base import FamilySpec, FitContext, FitData, Fitted
+
+Variable = Literal["x", "v", "P"]
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class CrossValidation(_Section):
+    """Blocked K-fold CV over the training rows along a log-spaced threshold path."""
+
+    folds: Annotated[int, Field(ge=2, le=20)] = 5
+    points: Annotated[int, Field(ge=5, le=200)] = 30
+    rule: Literal["one_se", "min"] = "one_se"
+
+
+class Ensemble(_Section):
+    """Blocked bootstrap: ``models`` STLSQ fits on resampled ``block_seconds`` blocks."""
+
+    models: Annotated[int, Field(ge=10, le=2000)] = 50
+    block_seconds: Annotated[float, Field(gt=0, le=600)] = 0.25
+    confidence: Annotated[float, Field(gt=0.5, lt=1)] = 0.95
+
+
+class FreeRun(_Section):
+    """Fixed-step RK4 free run on each held-out block, with a wall-time bound."""
+
+    enabled: bool = True
+    substeps: Annotated[int, Field(ge=1, le=64)] = 2
+    max_seconds: Annotated[float, Field(gt=0, le=3600)] = 60.0
+
+
+class PipelineVelocity(_Section):
+    """The velocity the pipeline's denoise stage estimated (its settings are in ``denoise``)."""
+
+    kind: Literal["pipeline"] = "pipeline"
+
+    def build(self):
+        return None
+
+    def label(self) -> str:
+        return "the pipeline's velocity estimate (the experiment's denoise.derivative)"
+
+
+class SmoothedFiniteDifferenceVelocity(_Section):
+    """pysindy's SmoothedFiniteDifference (Savitzky-Golay, then centred differences) on each
+    whole log's smoothed x."""
+
+    kind: Literal["smoothed_finite_difference"] = "smoothed_finite_difference"
+    window_s: Annotated[float, Field(gt=0, le=10)] = 0.05
+    polyorder: Annotated[int, Field(ge=1, le=7)] = 3
+
+    def build(self):
+        from hmid.models.sindy._derivative import SmoothedVelocity
+
+        return SmoothedVelocity(self.window_s, self.polyorder)
+
+    def label(self) -> str:
+        return (
+            f"pysindy SmoothedFiniteDifference on each whole log (Savitzky-Golay window "
+            f"{self.window_s:g} s, order {self.polyorder})"
+        )
+
+
+class SINDySpec(FamilySpec):
+    """A SINDy force map and its equation of motion; see the module docstring for the keys."""
+
+    family: Literal["sindy"] = "sindy"
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$")] = "stlsq"
+    variables: Annotated[tuple[Variable, ...], Field(min_length=1)] = ("x", "v", "P")
+    degree: Annotated[int, Field(ge=1, le=4)] = 3
+    max_degree: dict[Variable, Annotated[int, Field(ge=0, le=4)]] = Field(
+        default_factory=lambda: {"P": 1}
+    )
+    friction_terms: bool = True
+    v0: Annotated[float, Field(gt=0, le=1)] = 1e-3
+    stick_speed: Annotated[float, Field(ge=0, le=1)] = 1e-2
+    # An equation of motion needs the pressure drive and a restoring force. On quasi-static logs
+    # F_m ~ m1 g + friction, and cross-validation alone keeps only {1, tanh(v/v0)} (a map with no
+    # P and no x, whose free run drifts); ``keep`` spares these terms from the threshold.
+    keep: tuple[str, ...] = ("x", "P")
+    threshold: Literal["cv"] | Annotated[float, Field(ge=0)] = "cv"
+    cv: CrossValidation = CrossValidation()
+    ridge: Annotated[float, Field(ge=0)] = 0.0
+    ensemble: Ensemble = Ensemble()
+    seed_offset: int = 0
+    velocity: Annotated[
+        PipelineVelocity | SmoothedFiniteDifferenceVelocity, Field(discriminator="kind")
+    ] = PipelineVelocity()
+    free_run: FreeRun = FreeRun()
+
+    @field_validator("threshold", mode="before")
+    @classmethod
+    def _threshold(cls, value):
+        number = isinstance(value, int | float) and not isinstance(value, bool)
+        if value != "cv" and not (number and value >= 0):
+            raise ValueError("must be 'cv' (cross-validated) or a number >= 0")
+        return value
+
+    @model_validator(mode="after")
+    def _consistent(self) -> SINDySpec:
+        if len(set(self.variables)) != len(self.variables):
+            raise ValueError(f"variables must not repeat, got {list(self.variables)}")
+        extra = sorted(set(self.max_degree) - set(self.variables))
+        if extra:
+            raise ValueError(f"max_degree names {extra}, which are not among variables")
+        from hmid.models.sindy._library import FeatureLibrary, canonical_name
+
+        library = FeatureLibrary(
+            self.variables, self.degree, dict(self.max_degree), self.friction_terms, self.v0
+        )
+        candidates = library.candidate_names()
+        unknown = [k for k in self.keep if canonical_name(k) not in candidates]
+        if unknown:
+            raise ValueError(
+                f"keep names {unknown}, which are not library terms; terms: {', '.join(candidates)}"
+            )
+        if self.stick_speed and self.friction_terms and self.v0 > 10 * self.stick_speed:
+            raise ValueError(
+                f"v0={self.v0} m/s is over ten times stick_speed={self.stick_speed} m/s: "
+                "tanh(v/v0) would be nearly linear on the fitted rows; lower v0"
+            )
+        return self
+
+    def fit(self, train: FitData, context: FitContext) -> list[Fitted]:
+        from hmid.models.sindy import EquationOfMotion, SINDyForceModel, free_run
+        from hmid.models.sindy._result import INTERVAL_CAVEAT, SINDyResult, with_velocity
+
+        velocity = self.velocity.build()
+        frame = train.frame
+        if velocity is not None:
+            frame = with_velocity(frame, train.sequences, velocity)
+        model = SINDyForceModel(
+            variables=self.variables, degree=self.degree, max_degree=dict(self.max_degree),
+            friction_term=self.friction_terms, v0=self.v0, stick_speed=self.stick_speed,
+            keep=self.keep,
+            threshold=self.threshold, folds=self.cv.folds, path_points=self.cv.points,
+            rule=self.cv.rule, ridge=self.ridge, n_models=self.ensemble.models,
+            block_seconds=self.ensemble.block_seconds, confidence=self.ensemble.confidence,
+            seed=context.seed + self.seed_offset, name=self.name,
+        )  # fmt: skip
+        model.fit(frame[["log", "t", "x", "v", "P"]], frame["F_m"].to_numpy())
+        notes = list(model.summary_.warnings)
+        eom, run = None, None
+        if self.free_run.enabled and train.sequences:
+            try:
+                eom = EquationOfMotion.from_estimate(
+                    model.force_map(), context.rig, context.friction, self.v0
+                )
+            except ConfigError as err:
+                notes.append(f"free run skipped: {err}")
+            if eom is not None:
+                speeds = None
+                if velocity is not None:
+                    speeds = {
+                        n: velocity(s["t"].to_numpy(), s["x"].to_numpy())
+                        for n, s in train.sequences.items()
+                    }
+                run = free_run(
+                    eom, train.sequences, substeps=self.free_run.substeps,
+                    max_seconds=self.free_run.max_seconds, velocity=speeds,
+                )  # fmt: skip
+                notes.extend(
+                    f"free run {b.status} at t = {b.failed_at:.4f} s on {b.log} ({b.reason})"
+                    for b in run.blocks
+                    if b.status != "ok"
+                )
+        notes.append(INTERVAL_CAVEAT)
+        summary = model.summary_.to_dict() | {
+            "threshold": model.threshold_,
+            "selected_terms": list(model.selected),
+            "stuck_rows_left_out": model.n_stuck_,
+            "ensemble_models": model.n_models,
+        }
+        if run is not None:
+            summary |= {k: (None if isinstance(v, float) and not np.isfinite(v) else v)
+                        for k, v in run.summary().items()}  # fmt: skip
+        result = SINDyResult(model, eom, run, velocity, self.velocity.label())
+        return [
+            Fitted(
+                name=f"sindy:{self.name}",
+                family=self.family,
+                model=result,
+                kind="one-step",
+                fit_summary=summary,
+                coefficients=model.coefficient_table(),
+                equation=model.equation(),
+                notes=tuple(notes),
+            )
+        ]

@@ -1,0 +1,50 @@
+"""SINDy: a sparse force map F_m = Theta(x, v, P) xi discovered with pysindy, and its free run.
+
+Why a force map and not SINDy-with-control on [x, v]: the force map is scored one-step exactly
+like the polynomial family, its target (the reconstructed F_m) is far less noisy than the
+estimated acceleration, and stuck samples can be dropped by |v| without touching the target's
+meaning; the equation of motion follows from it and the identified friction.
+
+* :class:`SINDyForceModel` -- the force map by pysindy's STLSQ on a physics library (polynomials
+  in x, v, P with per-variable caps, plus tanh(v/v0) for friction; no duplicate columns), rows
+  with |v| < stick_speed left out, threshold by blocked cross-validation on the training rows
+  (one-standard-error rule), a blocked-bootstrap ensemble (seeded ``numpy.random.Generator``,
+  NumPy's global state untouched) for each term's inclusion probability and interval. All
+  least-squares problems run on QR-compressed blocks, so 30k rows fit in about a second.
+* :class:`EquationOfMotion` -- (M + m1) a = F_m(x, v, P) - m1 g - friction(v), sign(v) replaced by
+  tanh(v/v0), and :func:`free_run` -- fixed-step RK4 on each held-out block, driven by the
+  measured pressure, with divergence detection (reported with its time, never raised) and a
+  wall-time bound.
+* :class:`SINDyResult` -- what the pipeline's family hands on: one-step predictions, the free run
+  and the report's extras (equation of motion, threshold path, free-run table and figure).
+"""
+
+from hmid.models.sindy._freerun import (
+    BlockRun,
+    EquationOfMotion,
+    FreeRunResult,
+    free_run,
+    held_out_blocks,
+    simulate,
+)
+from hmid.models.sindy._library import TANH_NAME, Feature, FeatureLibrary, ForceMap
+from hmid.models.sindy._model import SINDyForceModel
+from hmid.models.sindy._result import Extras, SINDyResult
+from hmid.models.sindy._sparse import ThresholdPath
+
+__all__ = [
+    "TANH_NAME",
+    "BlockRun",
+    "EquationOfMotion",
+    "Extras",
+    "Feature",
+    "FeatureLibrary",
+    "ForceMap",
+    "FreeRunResult",
+    "SINDyForceModel",
+    "SINDyResult",
+    "ThresholdPath",
+    "free_run",
+    "held_out_blocks",
+    "simulate",
+]

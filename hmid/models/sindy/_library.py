@@ -1,0 +1,212 @@
+"""The candidate terms of the force map: pysindy's polynomial library in x, v, P plus tanh(v/v0).
+
+The library is a pysindy ``GeneralizedLibrary`` of a ``PolynomialLibrary`` over the configured
+variables (each divided by its largest absolute training value, so every monomial lies in
+[-1, 1]) and, for friction, a ``CustomLibrary`` with the smooth sign ``tanh(v / v0)`` of the
+physical velocity. Monomials whose power of a variable exceeds its cap (pressure enters only
+linearly by default, as in the thesis) are dropped, and so is any column that repeats an earlier
+one exactly (by name or value), so no term is counted twice. Each kept column is a
+:class:`Feature` that knows its unit and how to evaluate itself without pysindy (for the
+free-run integrator, which calls the force map hundreds of thousands of times).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import pysindy as ps
+
+from hmid.errors import ConfigError
+from hmid.models.terms import Term, coefficient_unit, polynomial_terms
+
+#: Name of the smooth friction column.
+TANH_NAME = "tanh(v/v0)"
+
+
+@dataclass(frozen=True)
+class Feature:
+    """One library column: a monomial ``term`` (physical variables), or ``tanh(v/v0)``.
+
+    ``factor`` converts a coefficient of the scaled column (variables divided by their scales)
+    to the physical coefficient: ``c_physical = c_scaled * factor``.
+    """
+
+    name: str  # 'x^2*v', 'tanh(v/v0)'
+    pretty: str  # 'x²·v', 'tanh(v/v0)'
+    unit: str  # unit of the coefficient that multiplies it to give N
+    factor: float
+    term: Term | None = None  # None for tanh(v/v0)
+
+    @property
+    def is_friction(self) -> bool:
+        return self.term is None
+
+
+def _exponent_term(variables: tuple[str, ...], powers: np.ndarray) -> Term:
+    return Term.of(**{v: int(p) for v, p in zip(variables, powers, strict=True)})
+
+
+class FeatureLibrary:
+    """Builds, fits and evaluates the candidate library (see the module docstring)."""
+
+    def __init__(
+        self,
+        variables: tuple[str, ...] = ("x", "v", "P"),
+        degree: int = 3,
+        max_degree: Mapping[str, int] | None = None,
+        friction_term: bool = True,
+        v0: float = 1e-3,
+    ) -> None:
+        variables = tuple(variables)
+        if not variables or len(set(variables)) != len(variables):
+            raise ConfigError(f"variables must be distinct names among x, v, P, got {variables}")
+        unknown = [v for v in variables if v not in ("x", "v", "P")]
+        if unknown:
+            raise ConfigError(f"variables {unknown} are not among x, v, P")
+        caps = {"P": 1} if max_degree is None else dict(max_degree)
+        for name in caps:
+            if name not in ("x", "v", "P"):
+                raise ConfigError(f"max_degree names {name!r}, which is not one of x, v, P")
+        if not (isinstance(degree, int) and 1 <= degree <= 6):
+            raise ConfigError(f"degree must be an integer in 1 ... 6, got {degree!r}")
+        if not (math.isfinite(v0) and v0 > 0):
+            raise ConfigError(f"v0 must be a positive speed in m/s, got {v0!r}")
+        self.variables = variables
+        self.degree = degree
+        self.caps = {v: c for v, c in caps.items() if v in variables}
+        self.friction_term = friction_term
+        self.v0 = float(v0)
+
+    def candidate_names(self) -> tuple[str, ...]:
+        """Names of every term the library can hold (before duplicates are dropped)."""
+        names = [t.name for t in polynomial_terms(self.variables, self.degree, self.caps)]
+        return (*names, TANH_NAME) if self.friction_term else tuple(names)
+
+    # -- fitting ---------------------------------------------------------------------------------
+    def fit(self, columns: Mapping[str, np.ndarray]) -> FeatureLibrary:
+        """Scales from the training rows, the pysindy library, the kept columns (``features_``)."""
+        self.scales_ = {v: _scale_of(columns[v]) for v in self.required}
+        poly = ps.PolynomialLibrary(degree=self.degree, include_bias=True)
+        libraries, inputs = [poly], [list(range(len(self.variables)))]
+        if self.friction_term:
+            libraries.append(
+                ps.CustomLibrary(
+                    library_functions=[_tanh],
+                    function_names=[_tanh_name],
+                )
+            )
+            inputs.append([len(self.variables)])  # v / v0 (physical v), appended last
+        self._pysindy = ps.GeneralizedLibrary(libraries, inputs_per_library=inputs)
+        design = self._raw(columns)
+        powers = np.asarray(poly.powers_)
+        candidates: list[tuple[int, Feature]] = []
+        for j, row in enumerate(powers):
+            if any(row[i] > self.caps.get(v, self.degree) for i, v in enumerate(self.variables)):
+                continue
+            term = _exponent_term(self.variables, row)
+            factor = 1.0 / term.scale_factor(self.scales_)
+            candidates.append(
+                (j, Feature(term.name, term.pretty, coefficient_unit(term), factor, term))
+            )
+        if self.friction_term:
+            candidates.append((len(powers), Feature(TANH_NAME, TANH_NAME, "N", 1.0)))
+        kept, dropped = [], []
+        for j, feature in candidates:
+            column = design[:, j]
+            duplicate = any(feature.name == f.name or _same(column, design[:, i]) for i, f in kept)
+            (dropped if duplicate else kept).append((j, feature))
+        self.columns_ = np.array([j for j, _ in kept])
+        self.features_ = tuple(f for _, f in kept)
+        self.dropped_ = tuple(f.name for _, f in dropped)
+        return self
+
+    def _raw(self, columns: Mapping[str, np.ndarray]) -> np.ndarray:
+        scaled = [columns[v] / self.scales_[v] for v in self.variables]
+        if self.friction_term:
+            scaled.append(columns["v"] / self.v0)
+        inputs = np.column_stack(scaled)
+        if not hasattr(self._pysindy, "n_output_features_"):
+            self._pysindy.fit(inputs)
+        return np.asarray(self._pysindy.transform(inputs), dtype=float)
+
+    def transform(self, columns: Mapping[str, np.ndarray]) -> np.ndarray:
+        """The design (rows x kept features) in the scaled basis; see :attr:`Feature.factor`."""
+        return self._raw(columns)[:, self.columns_]
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(f.name for f in self.features_)
+
+    @property
+    def required(self) -> tuple[str, ...]:
+        """Columns a design needs: the variables, and v for the friction term."""
+        return tuple(dict.fromkeys((*self.variables, *(("v",) if self.friction_term else ()))))
+
+
+def canonical_name(name: str) -> str:
+    """A term's name in the library's spelling: ``'P*x'`` -> ``'x*P'``; ``tanh(v/v0)`` as is."""
+    text = name.replace(" ", "")
+    if text == TANH_NAME:
+        return TANH_NAME
+    try:
+        return Term.parse(text).name
+    except ConfigError:
+        return text
+
+
+def _scale_of(values: np.ndarray) -> float:
+    scale = float(np.max(np.abs(values))) if values.size else 0.0
+    return scale if scale > 0 else 1.0
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    """Columns equal to rounding (a library that adds the same column twice)."""
+    size = max(float(np.max(np.abs(a))), float(np.max(np.abs(b))), 1e-300)
+    return bool(np.max(np.abs(a - b)) <= 1e-12 * size)
+
+
+def _tanh(u: np.ndarray) -> np.ndarray:
+    """The friction column, of ``u = v / v0`` (a named function: pysindy reads its arity, and
+    fitted models are pickled by the pipeline's stage cache)."""
+    return np.tanh(u)
+
+
+def _tanh_name(*_: str) -> str:
+    return TANH_NAME
+
+
+class ForceMap:
+    """``F(x, v, P)`` for scalars from physical coefficients, without pysindy or NumPy calls.
+
+    Only the non-zero terms are kept; each is a product of precomputed powers, so one call costs a
+    few microseconds in plain Python (the free-run integrator's inner loop).
+    """
+
+    def __init__(self, features: tuple[Feature, ...], coef: np.ndarray, v0: float) -> None:
+        self.v0 = float(v0)
+        self.friction = 0.0
+        self.monomials: list[tuple[float, int, int, int]] = []
+        self.degree = 1
+        for feature, c in zip(features, np.asarray(coef, dtype=float), strict=True):
+            if c == 0.0:
+                continue
+            if feature.is_friction:
+                self.friction += float(c)
+                continue
+            i, j, k = feature.term.exponents(("x", "v", "P"))
+            self.monomials.append((float(c), i, j, k))
+            self.degree = max(self.degree, i, j, k)
+
+    def __call__(self, x: float, v: float, P: float) -> float:
+        xp, vp, pp = [1.0], [1.0], [1.0]
+        for _ in range(self.degree):
+            xp.append(xp[-1] * x)
+            vp.append(vp[-1] * v)
+            pp.append(pp[-1] * P)
+        total = self.friction * math.tanh(v / self.v0) if self.friction else 0.0
+        for c, i, j, k in self.monomials:
+            total += c * xp[i] * vp[j] * pp[k]
+        return total

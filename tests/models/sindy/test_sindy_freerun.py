@@ -1,0 +1,108 @@
+"""Free run of the discovered equation of motion: tracks simulator truth, and fails cleanly."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+from _sindy_truth import SPLIT_T, sequences
+
+from hmid.errors import ConfigError
+from hmid.models.sindy import (
+    EquationOfMotion,
+    FeatureLibrary,
+    ForceMap,
+    free_run,
+    held_out_blocks,
+    simulate,
+)
+
+
+@pytest.fixture(scope="module")
+def fitted(truth_fits):
+    return truth_fits[0]
+
+
+def test_free_run_tracks_the_measured_x_on_held_out_truth(fitted, truth, rig_constants,
+                                                          true_friction):  # fmt: skip
+    """9 s held-out, from the true state at its start, driven by the true P. Tolerance: x RMSE
+    below 0.05 mm (measured 0.014 mm; the rig's x spans ~10 mm, its stick band 2 Fc/k ~0.2 mm)."""
+    eom = EquationOfMotion.from_estimate(fitted.force_map(), rig_constants, true_friction, 1e-3)
+    result = free_run(eom, sequences(truth), substeps=2, max_seconds=60)
+    (block,) = result.blocks
+    assert block.status == "ok" and block.failed_at is None
+    assert block.t[0] == pytest.approx(SPLIT_T, abs=0.05) and block.t[-1] == pytest.approx(30.0)
+    assert result.rmse < 5e-5
+    assert np.ptp(block.x_measured) > 5e-3  # the block does move
+    table = result.table()
+    assert list(table["status"]) == ["ok"] and table["x rmse [mm]"].iloc[0] < 0.05
+    assert "x RMSE" in result.text()
+
+
+def _unstable_eom(rig_constants, true_friction) -> EquationOfMotion:
+    """F_m = m1 g + 1e7 N/m (x - 7 mm): a huge *positive* stiffness, x runs away exponentially."""
+    library = FeatureLibrary(("x",), degree=1, friction_term=False)
+    library.fit({"x": np.array([0.0, 0.01])})
+    weight = rig_constants.m1 * rig_constants.g
+    force = ForceMap(library.features_, np.array([weight - 1e7 * 0.007, 1e7]), v0=1e-3)
+    return EquationOfMotion.from_estimate(force, rig_constants, true_friction, 1e-3)
+
+
+def test_a_diverging_model_is_reported_with_its_time_not_raised(truth, rig_constants,
+                                                                true_friction):  # fmt: skip
+    eom = _unstable_eom(rig_constants, true_friction)
+    start = time.perf_counter()
+    result = free_run(eom, sequences(truth), substeps=2, max_seconds=30)
+    assert time.perf_counter() - start < 5.0
+    (block,) = result.blocks
+    assert block.status == "diverged"
+    assert block.t[0] < block.failed_at < block.t[0] + 1.0  # e-folding time ~ 0.3 ms
+    assert any(word in block.reason for word in ("outside", "above", "non-finite"))
+    assert np.isnan(block.x_simulated[-1]) and np.isfinite(block.x_simulated[0])
+    assert np.isnan(result.rmse) and result.diverged == (block,)
+    assert "diverged**: chirp block" in result.text() and "at t = " in result.text()
+
+
+def test_non_finite_values_and_the_wall_time_bound_are_handled(rig_constants, true_friction):
+    eom = _unstable_eom(rig_constants, true_friction)
+    t = np.arange(1, 2001) / 1000.0
+    run = simulate(eom, t, np.full(2000, 1e5), 0.0071, 0.0, substeps=1)  # no bounds: overflows
+    assert run.status == "diverged" and "non-finite" in run.reason
+
+    def overflowing(x, v, P):
+        return 10.0 ** (1e3 * x)  # raises OverflowError once x > 0.308 m
+
+    raising = EquationOfMotion(overflowing, 0.25, 0.5, 9.8, 0.35, 0.0, 1e-3)
+    run = simulate(raising, t, np.zeros(2000), 0.31, 0.0)
+    assert run.status == "diverged" and run.reason.startswith("OverflowError")
+    stable = EquationOfMotion(ForceMap((), np.array([]), 1e-3), 0.25, 0.5, 9.8, 0.35, 0.0, 1e-3)
+    t = np.arange(1, 200_001) / 1000.0  # 200 s at 1 kHz: ~10 s of work
+    start = time.perf_counter()
+    run = simulate(eom=stable, t=t, P=np.zeros_like(t), x0=0.0, v_start=0.0,
+                   deadline=time.perf_counter() + 0.05)  # fmt: skip
+    assert time.perf_counter() - start < 1.0
+    assert run.status == "stopped" and run.failed_at < 200.0
+
+
+def test_held_out_blocks_span_stuck_rows_inside_them():
+    t = np.arange(10) / 10.0
+    frame = pd.DataFrame(
+        {"t": t, "x": t, "v": t, "P": t, "F_m": t,
+         "train": [1, 1, 1, 0, 0, 0, 0, 0, 1, 1], "validation": [0, 0, 0, 1, 0, 0, 1, 1, 0, 0]}
+    ).astype({"train": bool, "validation": bool})  # fmt: skip
+    ((name, block),) = held_out_blocks({"a": frame})
+    assert name == "a" and list(block["t"]) == pytest.approx([0.3, 0.4, 0.5, 0.6, 0.7])
+
+
+def test_friction_law_must_be_coulomb_plus_viscous(rig_constants):
+    class Stribeck:
+        def friction(self, v):
+            return np.sign(v) * (0.3 + 0.2 * np.exp(-np.abs(v) / 0.01))
+
+    with pytest.raises(ConfigError, match="Coulomb"):
+        EquationOfMotion.from_estimate(ForceMap((), np.array([]), 1e-3), rig_constants,
+                                       Stribeck(), 1e-3)  # fmt: skip
+    with pytest.raises(ConfigError, match="friction"):
+        EquationOfMotion.from_estimate(ForceMap((), np.array([]), 1e-3), rig_constants, None, 1e-3)
