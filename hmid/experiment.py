@@ -110,7 +110,7 @@ class ExperimentConfig(_Frozen):
     """A whole experiment; ``base_dir`` (the config's folder) anchors relative paths."""
 
     name: Annotated[str, Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")]
-    seed: int
+    seed: Annotated[int, Field(ge=0)]
     rig: RigSection
     logs: Annotated[tuple[LogEntry, ...], Field(min_length=1)]
     denoise: DenoiseSection = DenoiseSection()

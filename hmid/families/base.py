@@ -80,6 +80,7 @@ class FitContext:
     workdir: Path
     rig: Any = None  # hmid.io.log.RigConstants
     friction: Any = None  # hmid.friction.FrictionEstimate
+    force: bool = False  # --force: start resumable work afresh
 
 
 class FamilySpec(BaseModel):

@@ -124,7 +124,7 @@ class SINDySpec(FamilySpec):
     cv: CrossValidation = CrossValidation()
     ridge: Annotated[float, Field(ge=0)] = 0.0
     ensemble: Ensemble = Ensemble()
-    seed_offset: int = 0
+    seed_offset: Annotated[int, Field(ge=0)] = 0
     velocity: Annotated[
         PipelineVelocity | SmoothedFiniteDifferenceVelocity, Field(discriminator="kind")
     ] = PipelineVelocity()

@@ -35,6 +35,7 @@ class SLSSpec(FamilySpec):
     """Bayesian SLS: model options, noise model, and the sampler's budget."""
 
     family: Literal["sls"] = "sls"
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$")] = "sls"
     spring: Literal["linear", "cubic"] = "cubic"
     arms: Annotated[int, Field(ge=1, le=3)] = 1
     # "iid" by default: with structured misfit (e.g. noise in the measured x and P) an AR(1)
@@ -46,7 +47,8 @@ class SLSSpec(FamilySpec):
     stride: Annotated[int, Field(ge=1, le=50)] = 1  # use every stride-th sample (fewer = faster)
     walkers: Annotated[int, Field(ge=4, le=512)] = 32
     max_steps: Annotated[int, Field(ge=100)] = 20000
-    max_seconds: Annotated[float, Field(gt=0)] = 120.0
+    # a safety net only: a run stopped by wall time depends on machine speed (the report says so)
+    max_seconds: Annotated[float, Field(gt=0)] = 3600.0
     confidence: Annotated[float, Field(gt=0.5, lt=1)] = 0.90
     predictive_draws: Annotated[int, Field(ge=20, le=2000)] = 200
 
@@ -84,11 +86,16 @@ class SLSSpec(FamilySpec):
         if noise == "ar1":
             model = SLSModel(self.spring, self.arms, "ar1")
             start = initial_fit(data, model)
-        digest = hashlib.sha256(self.model_dump_json().encode())
+        # only what defines the chain: budgets and post-processing may change and still resume
+        chain_fields = {"spring", "arms", "noise", "memory_warmup_s", "stride", "walkers"}
+        digest = hashlib.sha256(self.model_dump_json(include=chain_fields).encode())
         for array in (data.t, data.x, data.P, data.F, data.use):
             digest.update(np.asarray(array).tobytes())
         fingerprint = f"{digest.hexdigest()[:16]}-{noise}-{context.seed}"
         context.workdir.mkdir(parents=True, exist_ok=True)
+        chain_path = context.workdir / f"sls-chain-{fingerprint}.h5"
+        if context.force:
+            chain_path.unlink(missing_ok=True)  # --force: a fresh chain, not a continued one
         result = run_sampler(
             model.log_prob_fn(data),
             start.theta,
@@ -98,7 +105,7 @@ class SLSSpec(FamilySpec):
                 max_seconds=self.max_seconds,
                 seed=context.seed,
             ),
-            backend_path=context.workdir / f"sls-chain-{fingerprint}.h5",
+            backend_path=chain_path,
             names=model.space.names,
             fingerprint=fingerprint,
         )
@@ -113,14 +120,15 @@ class SLSSpec(FamilySpec):
             tuple(start.notes),
         )
         prediction = model.predict(fitted.theta_median, data)[use]
-        stats = fit_statistics(np.asarray(data.F)[use], prediction, model.space.dim)
+        n_mean = model.space.dim - (2 if noise == "ar1" else 1)  # sigma (and phi) are noise
+        stats = fit_statistics(np.asarray(data.F)[use], prediction, n_mean)
         table = fitted.posterior_table()
-        summary = {"family": "sls", "name": "sls", "n_obs": int(use.sum()),
-                   "n_params": model.space.dim, "condition_number": None,
+        summary = {"family": "sls", "name": self.name, "n_obs": int(use.sum()),
+                   "n_params": n_mean, "condition_number": None,
                    "warnings": list(fitted.notes()), **stats}  # fmt: skip
         return [
             Fitted(
-                name="sls",
+                name=self.name if self.name == "sls" else f"sls:{self.name}",
                 family="sls",
                 model=fitted,
                 kind=KIND,
@@ -190,6 +198,7 @@ class SLSFitted:
         from hmid.models.sls import sls_data
 
         seqs = list(data.sequences.values())
+        # prediction needs no forces: rows without one (held out from this set) are not "used"
         full = sls_data(
             [
                 pd.DataFrame(
@@ -198,7 +207,7 @@ class SLSFitted:
                         "x": s["x"],
                         "P": s["P"],
                         "F": s["F_m"],
-                        "use": np.ones(len(s), bool),
+                        "use": np.isfinite(s["F_m"].to_numpy()),
                     }
                 )
                 for s in seqs

@@ -88,8 +88,11 @@ class Runner:
                 cached = True
             else:
                 upstream = {name: artifacts[name] for name in stage.inputs}
-                if "workdir" in inspect.signature(stage.fn).parameters:
+                parameters = inspect.signature(stage.fn).parameters
+                if "workdir" in parameters:
                     upstream["workdir"] = self.cache_dir  # for resumable side work (MCMC chains)
+                if "force" in parameters:
+                    upstream["force"] = self.force
                 artifacts[stage.name] = stage.fn(config, **upstream)
                 with atomic_path(path) as tmp, open(tmp, "wb") as handle:
                     pickle.dump(artifacts[stage.name], handle, protocol=pickle.HIGHEST_PROTOCOL)

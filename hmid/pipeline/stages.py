@@ -143,28 +143,48 @@ def split(config: ExperimentConfig, reconstruct: dict[str, LoadedLog]) -> Split:
     keep = rows["sliding"] if config.fit.exclude_stuck else np.ones(len(rows), dtype=bool)
     rows["train"] = keep & ~rows["validation"]
     rows["validation"] = keep & rows["validation"]
+    columns = ["t", "x", "v", "P", "F_m", "train", "validation"]
     sequences = {
-        name: group[["t", "x", "v", "P", "F_m", "train", "validation"]].reset_index(drop=True)
+        name: group[columns].reset_index(drop=True)
         for name, group in rows.groupby("log", sort=False)
+    }
+    # families see forces only where they may fit: NaN elsewhere, so nothing can leak
+    train_sequences = {
+        name: seq.assign(F_m=seq["F_m"].where(seq["train"])) for name, seq in sequences.items()
     }
     columns = ["log", "t", "x", "v", "P", "F_m"]
     train = rows.loc[rows["train"], columns].reset_index(drop=True)
     held = rows.loc[rows["validation"], columns].reset_index(drop=True)
+    for role, frame in (("training", train), ("held-out", held)):
+        if len(frame) < 10:
+            raise ConfigError(
+                f"split: only {len(frame)} {role} rows remain after excluding stuck samples; "
+                "change split.validation_fraction or split.validation_logs"
+            )
     return Split(
-        FitData(train, "train", sequences),
+        FitData(train, "train", train_sequences),
         FitData(held, "validation", sequences),
         int((~keep).sum()),
     )
 
 
-def fit(config: ExperimentConfig, split: Split, friction, *, workdir: Path) -> list[Fitted]:
+def fit(
+    config: ExperimentConfig, split: Split, friction, *, workdir: Path, force: bool = False
+) -> list[Fitted]:
     """Every configured family fitted on the same training rows."""
     if not config.models:
         raise ConfigError("models: no model family configured; add e.g. {family: polynomial}")
-    context = FitContext(config.seed, workdir, config.rig.constants(), friction)
+    context = FitContext(config.seed, workdir, config.rig.constants(), friction, force)
     fitted: list[Fitted] = []
     for spec in config.models:
         fitted.extend(spec.fit(split.train, context))
+    names = [model.name for model in fitted]
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise ConfigError(
+            f"models: several fitted models are named {repeated}; give each entry its own name "
+            "(e.g. name: cubic for a second sls entry, or distinct custom term-set names)"
+        )
     return fitted
 
 

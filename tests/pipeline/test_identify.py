@@ -153,7 +153,7 @@ def test_sls_family_recovers_the_muscle_and_beats_polynomials(workspace):
     # the five mixed demo logs. Hence 12 % here, not the posterior interval.
     models = [
         {"family": "polynomial", "variants": ["cubic_xvP"]},
-        {"family": "sls", "stride": 4, "walkers": 16, "max_steps": 1500, "max_seconds": 20},
+        {"family": "sls", "stride": 4, "walkers": 16, "max_steps": 1500},
     ]
     run_dir, metrics = run(_config(workspace, models=models), results=workspace / "results-sls")
     scores = {m["model"]: m for m in metrics["held_out"]}
@@ -166,6 +166,26 @@ def test_sls_family_recovers_the_muscle_and_beats_polynomials(workspace):
         assert (run_dir / "figures" / name).is_file()
     held = _read_csv(run_dir / "tables/held_out_scores.csv")
     assert any(r["model"] == "sls" and r["error kind"] == "one-step, with memory" for r in held)
+
+
+def test_duplicate_model_names_are_a_config_error(workspace):
+    models = [{"family": "polynomial", "variants": ["cubic_xv"],
+               "custom": [{"name": "cubic_xv", "degree": 2}]}]  # fmt: skip
+    with pytest.raises(ConfigError, match="several fitted models are named"):
+        run(_config(workspace, models=models), results=workspace / "results-dup")
+
+
+def test_training_rows_never_see_held_out_forces(workspace):
+    # Perturb every held-out force: no fitted coefficient may change (only the scores do).
+    from hmid.pipeline import stages as s
+
+    config = load_experiment(_config(workspace))
+    denoised = s.denoise(config, s.load(config))
+    rebuilt = s.reconstruct(config, denoised, s.friction(config, denoised))
+    split = s.split(config, rebuilt)
+    for seq in split.train.sequences.values():
+        assert seq.loc[~seq["train"], "F_m"].isna().all()
+        assert seq.loc[seq["train"], "F_m"].notna().all()
 
 
 def _read_csv(path):

@@ -26,7 +26,7 @@ def posterior():
     frame["use"] = t > 0.5
     data = sls_data([frame])
     start = initial_fit(data, model)
-    config = SamplerConfig(n_walkers=32, max_steps=4000, max_seconds=40, seed=3)
+    config = SamplerConfig(n_walkers=32, max_steps=4000, max_seconds=3600, seed=3)
     result = run_sampler(model.log_prob_fn(data), start.theta, config, names=model.space.names)
     physical = lambda chain: {k: np.asarray(v) for k, v in model.space.to_physical(chain).items()}  # noqa: E731
     return result, result.summary(confidence=0.90, transform=physical)

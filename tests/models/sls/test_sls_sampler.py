@@ -285,7 +285,7 @@ def test_budgets_and_stop_reasons():
     config = _with(SHORT, max_steps=10_000, max_seconds=0.1)
     res = run_sampler(slow, np.array([0.1, 0.2]), config, names=["x", "y"])
     assert res.stop_reason == "time budget" and 0 < res.n_steps < 10_000
-    assert res.wall_s < 1.0
+    assert res.wall_s < 5.0  # 0.1 s budget; generous for a loaded machine
 
 
 def test_global_numpy_random_state_is_untouched(tmp_path):
