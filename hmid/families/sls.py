@@ -21,6 +21,7 @@ from pydantic import Field
 
 from hmid.families.base import FamilySpec, FitContext, FitData, Fitted
 
+PREDICT_BATCH = 25  # posterior draws predicted at once for the band
 KIND = "one-step, with memory"  # force from measured x, P and the memory that x implies
 
 
@@ -225,10 +226,14 @@ class SLSFitted:
         full, rows = self._rows(data)
         rng = np.random.default_rng([self.seed, 5])
         draws = self.result.draws(self.spec.predictive_draws, rng)
-        forces = self.model.predict(draws, full)[rows]  # (n_rows, draws)
         sigma, phi = (np.asarray(v) for v in self.model.space.noise_params(draws))
         scale = sigma / np.sqrt(1.0 - phi**2) if self.noise == "ar1" else sigma
-        noisy = forces + rng.standard_normal(forces.shape) * scale[None, :]
+        # in batches of draws: the whole-log (n, draws) prediction would dominate peak memory
+        noisy = np.empty((int(rows.sum()), len(draws)))
+        for lo in range(0, len(draws), PREDICT_BATCH):
+            hi = min(lo + PREDICT_BATCH, len(draws))
+            noisy[:, lo:hi] = self.model.predict(draws[lo:hi], full)[rows]
+        noisy += rng.standard_normal(noisy.shape) * scale[None, :]
         tail = (1.0 - self.spec.confidence) / 2.0
         lower, upper = np.quantile(noisy, [tail, 1.0 - tail], axis=1)
         return lower, upper
