@@ -108,8 +108,18 @@ def time_pipeline(config: Path, results: Path, repeats: int) -> dict:
         runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
     wall = statistics.median(r["wall"] for r in runs)
     stages = statistics.median(sum(r["stages"].values()) for r in runs)
+    per_stage = {k: statistics.median(r["stages"][k] for r in runs) for k in runs[0]["stages"]}
     rss = max(r["rss_mb"] for r in runs)
-    return {"wall": wall, "stages": stages, "rss_mb": rss}
+    return {"wall": wall, "stages": stages, "per_stage": per_stage, "rss_mb": rss}
+
+
+#: Stages whose work is proportional to the data; fit and report also carry fixed costs (JIT
+#: compilation, a fixed MCMC step budget's per-call overhead, figure rendering).
+DATA_STAGES = ("load", "denoise", "friction", "reconstruct", "split", "compare")
+
+
+def _data_time(result: dict) -> float:
+    return sum(result["per_stage"].get(k, 0.0) for k in DATA_STAGES)
 
 
 def polynomial_vs_formula(repeats: int = 5) -> tuple[float, float]:
@@ -159,16 +169,23 @@ def main() -> int:
             result = time_pipeline(config, folder / "results", args.repeats)
             rows.append((duration, result))
             print(f"{duration:6.0f} s: {result}", flush=True)
+    names = list(rows[0][1]["per_stage"])
     lines = [
-        "| log length | pipeline wall [s] | sum of stages [s] | overhead | peak RSS [MB] "
-        "| time ratio vs half length |",
-        "|---:|---:|---:|---:|---:|---:|",
+        "| log length | wall [s] | overhead [s] | peak RSS [MB] | "
+        + " | ".join(f"{n} [s]" for n in names)
+        + " | wall ratio | data-stage ratio |",
+        "|" + "---:|" * (len(names) + 6),
     ]
     for i, (duration, r) in enumerate(rows):
-        ratio = f"{r['wall'] / rows[i - 1][1]['wall']:.2f}" if i else "—"
+        if i:
+            prev = rows[i - 1][1]
+            ratios = f"{r['wall'] / prev['wall']:.2f} | {_data_time(r) / _data_time(prev):.2f}"
+        else:
+            ratios = "— | —"
+        cells = " | ".join(f"{r['per_stage'][n]:.2f}" for n in names)
         lines.append(
-            f"| {duration:.0f} s | {r['wall']:.2f} | {r['stages']:.2f} | "
-            f"{r['wall'] - r['stages']:.2f} s | {r['rss_mb']:.0f} | {ratio} |"
+            f"| {duration:.0f} s | {r['wall']:.2f} | {r['wall'] - r['stages']:.2f} | "
+            f"{r['rss_mb']:.0f} | {cells} | {ratios} |"
         )
     ours, base = polynomial_vs_formula()
     lines += [
