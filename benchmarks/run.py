@@ -1,7 +1,9 @@
 """hmid benchmarks: each figure is a ratio against a baseline run side by side, medians of repeats.
 
-Run: ``make bench`` (or ``.venv/bin/python benchmarks/run.py``). Writes a Markdown table to stdout
-and to ``results/benchmarks/<UTC time>.md``.
+Run: ``make bench`` (or ``.venv/bin/python benchmarks/run.py [--quick]``). Runs the core table
+below, then every other ``benchmarks/bench_*.py`` script one after another (never side by side:
+the machine has two cores), and writes all their tables to stdout and to one file
+``results/benchmarks/<UTC time>.md``. ``--quick`` runs only the core table.
 """
 
 from __future__ import annotations
@@ -50,12 +52,25 @@ def bench_simulator(rows):
             base_t = median_time(
                 lambda P=P_cmd, x0=x0: integrate_python(rig, P, rate, x0, substeps), base_repeats
             )
-            rows.append((f"rig simulator, {seconds:g} s at 1 kHz, 20 substeps",
-                         "pure-Python loop, same equations", hmid_t, base_t,
-                         f"max |x diff| {agree:.1e} m"))  # fmt: skip
+            rows.append(
+                (
+                    f"rig simulator, {seconds:g} s at 1 kHz, 20 substeps",
+                    "pure-Python loop, same equations",
+                    hmid_t,
+                    base_t,
+                    f"max |x diff| {agree:.1e} m",
+                )
+            )
         else:
-            rows.append((f"rig simulator, {seconds:g} s at 1 kHz, 20 substeps", "—", hmid_t, None,
-                         "target: a few seconds"))  # fmt: skip
+            rows.append(
+                (
+                    f"rig simulator, {seconds:g} s at 1 kHz, 20 substeps",
+                    "—",
+                    hmid_t,
+                    None,
+                    "target: a few seconds",
+                )
+            )
 
 
 def bench_moving_average(rows):
@@ -64,15 +79,28 @@ def bench_moving_average(rows):
         ours = median_time(lambda n=n: moving_average(y, n), 7)
         series = pd.Series(y)
         base = median_time(lambda n=n, s=series: s.rolling(n, center=True, min_periods=1).mean(), 7)
-        rows.append((f"centred moving average, 1e6 samples, window {n}",
-                     "pandas rolling(center=True).mean()", ours, base, ""))  # fmt: skip
+        rows.append(
+            (
+                f"centred moving average, 1e6 samples, window {n}",
+                "pandas rolling(center=True).mean()",
+                ours,
+                base,
+                "",
+            )
+        )
 
 
 def bench_read_log(rows):
     n = 60_000
     rng = np.random.default_rng(1)
-    frame = pd.DataFrame({"t_ms": np.arange(n, dtype=float), "P_kPa": rng.uniform(0, 300, n),
-                          "x_mm": rng.uniform(0, 20, n), "F_N": rng.uniform(0, 10, n)})  # fmt: skip
+    frame = pd.DataFrame(
+        {
+            "t_ms": np.arange(n, dtype=float),
+            "P_kPa": rng.uniform(0, 300, n),
+            "x_mm": rng.uniform(0, 20, n),
+            "F_N": rng.uniform(0, 10, n),
+        }
+    )
     units = {"t": "ms", "P": "kPa", "x": "mm", "F": "N"}
     columns = ColumnMap(
         channels={c: ChannelSpec(column=f"{c}_{u}", unit=u) for c, u in units.items()}
@@ -82,11 +110,49 @@ def bench_read_log(rows):
         frame.to_csv(path, index=False)
         ours = median_time(lambda: read_log(path, columns), 7)
         base = median_time(lambda: pd.read_csv(path), 7)
-    rows.append(("read_log: 60 s, 1 kHz CSV, validated + SI", "pandas.read_csv alone", ours, base,
-                 "cost of validation and units"))  # fmt: skip
+    rows.append(
+        (
+            "read_log: 60 s, 1 kHz CSV, validated + SI",
+            "pandas.read_csv alone",
+            ours,
+            base,
+            "cost of validation and units",
+        )
+    )
+
+
+SCRIPTS = (
+    ("SLS likelihood", "bench_sls_likelihood.py", []),
+    ("SLS stage speed and calibration", "bench_sls_calibration.py", []),
+    ("SINDy fit", "bench_sindy.py", []),
+    ("Cost against log length", "bench_scaling.py", []),
+    ("Sweeps: 1 vs 2 workers", "bench_sweep.py", []),
+)
+
+
+def run_scripts() -> list[str]:
+    import subprocess
+
+    sections = []
+    here = Path(__file__).resolve().parent
+    for title, script, args in SCRIPTS:
+        if not (here / script).is_file():
+            continue
+        print(f"running {script} ...", flush=True)
+        done = subprocess.run(
+            [sys.executable, str(here / script), *args],
+            capture_output=True,
+            text=True,
+            cwd=here.parent,
+        )
+        table = [line for line in done.stdout.splitlines() if line.startswith("|")]
+        status = "" if done.returncode == 0 else f"\n(exit {done.returncode}: {done.stderr[-300:]})"
+        sections.append(f"## {title} (`{script}`)\n\n" + "\n".join(table) + status + "\n")
+    return sections
 
 
 def main() -> int:
+    quick = "--quick" in sys.argv[1:]
     rows: list[tuple] = []
     bench_simulator(rows)
     bench_moving_average(rows)
@@ -102,7 +168,10 @@ def main() -> int:
         base_s = f"{base:.4f}" if base else "—"
         lines.append(f"| {what} | {baseline} | {ours:.4f} | {base_s} | {ratio} | {note} |")
     text = "\n".join(lines) + "\n"
-    print(text)
+    print(text, flush=True)
+    if not quick:
+        text += "\n" + "\n".join(run_scripts())
+        print(text)
     out = Path("results/benchmarks")
     out.mkdir(parents=True, exist_ok=True)
     (out / f"{dt.datetime.now(dt.UTC):%Y%m%dT%H%M%SZ}.md").write_text(text)
