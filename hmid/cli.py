@@ -18,6 +18,8 @@ commands:
   run         run an identification experiment: friction, model families, held-out
               comparison, report (HTML + Markdown + JSON + figures)
   summary     load, validate, denoise and summarise the logs named by an experiment config
+  sweep       run one experiment over many logs or settings (process pool or Dask cluster)
+              and compare the runs in one table
 """
 
 
@@ -47,7 +49,9 @@ def _run(args: argparse.Namespace) -> int:
 
     run_dir, metrics = run(Path(args.config), results=Path(args.results), force=args.force)
     best = metrics["held_out"][0]
-    print(f"best model: {best['model']}, held-out RMSE {best['rmse (held-out)']:.4g} N (one-step)")
+    rmse = best["rmse (held-out)"]
+    rmse_text = "n/a" if rmse is None else f"{rmse:.4g} N"
+    print(f"best model: {best['model']}, held-out RMSE {rmse_text} ({best['error kind']})")
     print(f"report: {run_dir / 'report.html'}")
     return 0
 
@@ -58,6 +62,44 @@ def _summary(args: argparse.Namespace) -> int:
     run_dir = run(Path(args.config), results=Path(args.results), quiet=args.quiet)
     print(f"report: {run_dir / 'summary.md'}")
     return 0
+
+
+def _sweep(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from hmid.sweep import execute
+    from pipelines.sweep import identify, plan
+
+    sweep = plan(
+        Path(args.config),
+        results=Path(args.results),
+        force=args.force,
+        retry_failed=args.retry_failed,
+    )
+    total = len(sweep.pending) if args.limit is None else min(args.limit, len(sweep.pending))
+    with tqdm(total=total, desc=f"sweep {sweep.sweep.name}", unit="run", disable=args.quiet) as bar:
+
+        def step(record) -> None:
+            bar.set_postfix_str(f"{record.run_id} {record.status}")
+            bar.update()
+
+        try:
+            outcome = execute(
+                sweep,
+                identify,
+                workers=args.workers,
+                scheduler=args.scheduler,
+                limit=args.limit,
+                progress=step,
+            )
+        except KeyboardInterrupt:
+            kept = sweep.folder / "done"
+            print(f"\nhmid sweep: interrupted; finished runs are kept ({kept}): run the same "
+                  "command again to resume", file=sys.stderr)  # fmt: skip
+            return 130
+    print(outcome.describe())
+    print(f"table: {outcome.markdown} (CSV: {outcome.table})")
+    return 1 if outcome.count("failed") else 0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -106,6 +148,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--results", default="results", help="results root folder (default: results)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_summary)
+
+    p = sub.add_parser(
+        "sweep",
+        help="run one experiment over many logs or settings and compare the runs",
+        description="Run the identification study once per run of a sweep config (see "
+        "configs/sweeps/): a base experiment config and, per run, overrides at dotted keys, "
+        "listed under runs: or as a grid:. Runs execute in a local process pool, or on a Dask "
+        "cluster when the config's executor or --scheduler names one. Writes "
+        "results/<sweep>/: runs/<run id>/ (each run's config and report), done/<run id>.json "
+        "(each finished run's record) and sweep.csv + sweep.md (one row per run: overrides, "
+        "status, best model, held-out RMSE per model, friction). A failed run is reported in "
+        "the table and does not stop the others; runs finished before are skipped (an "
+        "interrupted sweep resumes). Exit status 1 when a run failed.",
+    )
+    p.add_argument("config", type=Path, help="sweep config (YAML), see configs/sweeps/")
+    p.add_argument("--results", default="results", help="results root folder (default: results)")
+    p.add_argument("--workers", type=int, help="local worker processes (default: the config's)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786")
+    p.add_argument("--limit", type=int, help="run at most this many of the pending runs")
+    p.add_argument("--retry-failed", action="store_true", help="run failed runs again")
+    p.add_argument("--force", action="store_true", help="run every run again, ignore the cache")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_sweep)
     return parser
 
 
