@@ -21,12 +21,12 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import yaml
+from _timing import median_time
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -143,13 +143,7 @@ def polynomial_vs_formula(repeats: int = 5) -> tuple[float, float]:
     )
 
     def median(fn):
-        fn()
-        times = []
-        for _ in range(repeats):
-            start = time.perf_counter()
-            fn()
-            times.append(time.perf_counter() - start)
-        return statistics.median(times)
+        return median_time(fn, repeats)
 
     ours = median(lambda: PolynomialModel("cubic_xvP").fit(frame[["x", "v", "P"]], frame.F))
     base = median(lambda: smf.ols(formula, frame).fit())

@@ -8,13 +8,12 @@ STLSQ on the same 30k-row design at the same threshold, without the threshold se
 
 from __future__ import annotations
 
-import statistics
 import sys
-import time
 import warnings
 
 import numpy as np
 import pandas as pd
+from _timing import median_time
 
 from hmid.friction import Coulomb, FrictionEstimate
 from hmid.io.log import RigConstants
@@ -26,16 +25,6 @@ from hmid.simulate.rig import integrate
 RIG = RigParams(muscle=MuscleParams(k2=0.0))  # no memory: the truth is in the library
 TRUE = {"x": -3000.0, "P": 2e-4, "x^3": -2e6}
 RATE = 1000.0
-
-
-def median_time(fn, repeats: int) -> float:
-    fn()  # warm-up (unit registry, imports)
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def truth_frame(seconds: float, seed: int = 0, noise: float = 0.01) -> pd.DataFrame:

@@ -9,10 +9,8 @@ the machine has two cores), and writes all their tables to stdout and to one fil
 from __future__ import annotations
 
 import datetime as dt
-import statistics
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -20,22 +18,13 @@ import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _baseline_rig import integrate_python
+from _timing import median_time
 
 from hmid.io import ChannelSpec, ColumnMap, read_log
 from hmid.signal import moving_average
 from hmid.simulate.params import RigParams
 from hmid.simulate.profiles import Sine
 from hmid.simulate.rig import equilibrium, integrate
-
-
-def median_time(fn, repeats: int) -> float:
-    fn()  # warm-up: JIT compilation, caches, unit registry
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def bench_simulator(rows):
