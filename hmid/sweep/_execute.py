@@ -86,7 +86,7 @@ def open_executor(section: ExecutorSection) -> Iterator[Executor]:
     with ExitStack() as stack:
         if section.address is None:
             cluster = LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0"
             )
             stack.callback(cluster.close)
             client = Client(cluster)

@@ -77,7 +77,7 @@ def test_a_real_local_dask_cluster_gives_the_same_table(pool_sweep, workspace, t
     path, _, pool_outcome = pool_sweep
     with (
         distributed.LocalCluster(
-            n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None
+            n_workers=2, processes=True, threads_per_worker=1, dashboard_address=":0"
         ) as cluster,
         distributed.Client(cluster) as client,
     ):
