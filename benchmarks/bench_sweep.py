@@ -131,6 +131,7 @@ def main() -> None:
     from pipelines.sweep import plan
 
     rows = []
+    load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         for variants in args.variants:
@@ -140,7 +141,11 @@ def main() -> None:
             rows.append(compare(sweep, root, args.repeats, label))
             if args.dask:
                 rows.append(compare_dask(sweep, root, args.repeats, label))
-    print(f"cores: {os.cpu_count()}; medians of {args.repeats} repeats\n")
+    print(
+        f"cores: {os.cpu_count()}; medians of {args.repeats} repeats; 1-minute load average "
+        f"{load_before:.1f} before, {os.getloadavg()[0]:.1f} after (other work on the machine "
+        "distorts the timings)\n"
+    )
     print("| benchmark | 1 worker [s] | 2 workers [s] | speed-up | note |")
     print("| :--- | ---: | ---: | ---: | :--- |")
     for name, one, two, speedup, note in rows:
