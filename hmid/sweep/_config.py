@@ -56,7 +56,9 @@ class ExecutorSection(_Frozen):
         if scheduler is not None and workers is not None:
             raise ConfigError("--workers and --scheduler exclude each other: a cluster has its own")
         if scheduler is not None:
-            return ExecutorSection(kind="dask", address=scheduler)
+            if not scheduler.strip():
+                raise ConfigError("--scheduler needs an address, e.g. tcp://host:8786")
+            return ExecutorSection(kind="dask", address=scheduler.strip())
         if workers is not None:
             if self.address is not None:
                 raise ConfigError(

@@ -95,7 +95,7 @@ def write_table(
         "pending": int((status == "pending").sum()),
     }
     shown = sweep_frame(plan, records, _short)
-    keys = [k for k in dict.fromkeys(k for run in plan.runs for k in run.overrides)]
+    keys = list(dict.fromkeys(k for run in plan.runs for k in run.overrides))
     same = [k for k in keys if all(k in r.overrides for r in plan.runs) and shown[k].nunique() == 1]
     sweep = plan.sweep
     report = Report(
