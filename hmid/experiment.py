@@ -16,6 +16,7 @@ from hmid.config import load_yaml_model
 from hmid.errors import ConfigError
 from hmid.families import FamilySpec, make_family
 from hmid.io.log import RigConstants
+from hmid.loop.config import LoopSpec
 from hmid.signal import (
     Differentiator,
     MovingAverage,
@@ -118,6 +119,7 @@ class ExperimentConfig(_Frozen):
     split: SplitSpec = SplitSpec()
     fit: FitSection = FitSection()
     models: tuple[SerializeAsAny[FamilySpec], ...] = ()
+    loop: LoopSpec | None = None  # close the loop on the residual (hmid.loop); off if absent
     base_dir: Path = Path(".")
 
     @field_validator("models", mode="before")

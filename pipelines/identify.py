@@ -31,7 +31,25 @@ STAGES = (
         lambda c: {"models": [m.model_dump(mode="json") for m in c.models], "seed": c.seed},
     ),
     Stage("compare", s.compare, ("split", "fit")),
+    Stage(
+        "loop",
+        s.loop,
+        ("split",),
+        lambda c: {"loop": c.loop.model_dump(mode="json") if c.loop else None},
+    ),
 )
+
+
+def analyse(config, stages: tuple[str, ...], cache: Path, *, force: bool = False) -> dict:
+    """Run the named stages and those they need (no run folder, no report); the artifacts."""
+    by_name = {stage.name: stage for stage in STAGES}
+    needed, todo = set(), list(stages)
+    while todo:
+        name = todo.pop()
+        if name not in needed:
+            needed.add(name)
+            todo.extend(by_name[name].inputs)
+    return Runner(cache, force=force).run([s for s in STAGES if s.name in needed], config)
 
 
 def run(

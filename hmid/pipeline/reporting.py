@@ -70,6 +70,19 @@ def _friction_text(estimate) -> str:
     return "\n".join(lines)
 
 
+def _loop_summary(result) -> tuple[tuple[str, str], ...]:
+    if result is None:
+        return ()
+    added = ", ".join(e.title for e in result.effects) or "no effect added"
+    return (
+        (
+            "closing the loop",
+            f"{result.verdict}: {added}; held-out RMSE (one-step) {result.before.rmse:.4g} → "
+            f"{result.after.rmse:.4g} N",
+        ),
+    )
+
+
 def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: dict) -> dict:
     """Write every table, figure, metrics.json and the report; returns the metrics."""
     from hmid.friction import plot_free_fall
@@ -125,6 +138,15 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
         plot_model(comparison.predictions, model.name, path)
         model_figures.append(Figure(path, f"{model.name} on held-out data (one-step error)"))
 
+    loop_sections = ()
+    if artifacts.get("loop") is not None:
+        from hmid.loop.report import loop_section
+
+        section, metrics_loop = loop_section(
+            artifacts["loop"], figures, lambda frame, name: _csv(frame, tables / name)
+        )
+        loop_sections = (section,)
+
     flags = [f for item in artifacts["load"].values() for f in item.log.flags]
     n_train, n_val = len(split.train.frame), len(split.validation.frame)
     metrics = {
@@ -137,6 +159,8 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
         "rows": {"train": n_train, "validation": n_val, "stuck_excluded": split.excluded_stuck},
         "flags": flags,
     }
+    if loop_sections:
+        metrics["loop"] = metrics_loop
     write_json(run_dir / "metrics.json", metrics)
 
     coulomb = estimate.params.get("Fc")
@@ -160,6 +184,7 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
                 "rows: train / held-out / stuck excluded",
                 f"{n_train} / {n_val} / {split.excluded_stuck}",
             ),
+            *_loop_summary(artifacts.get("loop")),
         ),
         sections=(
             Section(
@@ -183,6 +208,7 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
                     *model_figures,
                 ),
             ),
+            *loop_sections,
             Section(
                 "Model parameters (cf. thesis Table 4.2)", subsections=tuple(coefficient_sections)
             ),

@@ -213,3 +213,13 @@ def compare(config: ExperimentConfig, split: Split, fit: list[Fitted]) -> Compar
             predictions[f"{model.name} lower"], predictions[f"{model.name} upper"] = band
     table = pd.DataFrame(rows).sort_values("rmse (held-out)", kind="stable")
     return Comparison(table.reset_index(drop=True), predictions)
+
+
+def loop(config: ExperimentConfig, split: Split):
+    """Residual diagnostics, candidate effects and held-out confirmation (``None`` if the
+    experiment has no ``loop`` section)."""
+    if config.loop is None:
+        return None
+    from hmid.loop import from_sequences, run_loop
+
+    return run_loop(from_sequences(split.validation.sequences), config.loop)

@@ -82,3 +82,10 @@ def render_markdown(report: Report, run_dir: str | Path) -> str:
 def _code(text: str) -> str:
     """Text for an inline code span inside a table cell."""
     return " ".join(text.split()).replace("`", "'").replace("|", "\\|")
+
+
+def markdown_table(frame, float_format: str | None = None) -> str:
+    """A data frame as a pipe table, formatted as in reports."""
+    from hmid.report.document import Table
+
+    return "\n".join(_table(table_cells(Table(frame, "", float_format))))

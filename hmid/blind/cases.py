@@ -1,0 +1,101 @@
+"""The cases of a blind suite, their simulated data sets, and what each outcome means."""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from hmid.blind.config import BlindSuite
+
+CLEAN = "clean"
+
+
+@dataclass(frozen=True)
+class Case:
+    case_id: str
+    effect: str  # a simulator effect kind, or "clean"
+    strength: str
+    index: int
+    seed: int
+    params: dict[str, float]
+    expect: str | None  # the candidate that should be named first; None: none should be claimed
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def _seed(suite_seed: int, *parts: object) -> int:
+    return zlib.crc32(":".join(map(str, (suite_seed, *parts))).encode())
+
+
+def plan_cases(suite: BlindSuite) -> list[Case]:
+    """Clean controls first, then every effect x strength x seed; seeds differ across cases."""
+    cases = [
+        Case(f"clean-{i}", CLEAN, "-", i, _seed(suite.seed, CLEAN, i), {}, None)
+        for i in range(suite.clean_seeds)
+    ]
+    for effect in suite.effects:
+        for strength, params in effect.strengths.items():
+            for i in range(suite.seeds):
+                cases.append(
+                    Case(
+                        f"{effect.kind}-{strength}-{i}",
+                        effect.kind,
+                        strength,
+                        i,
+                        _seed(suite.seed, effect.kind, strength, i),
+                        dict(params),
+                        effect.expect,
+                    )
+                )
+    return cases
+
+
+def dataset_for(template: dict[str, Any], case: Case) -> dict[str, Any]:
+    """The data-set config of ``case``: the template with the case's seed and the effect on
+    every log (it is a property of the rig, free falls included)."""
+    config = {**template, "seed": case.seed, "logs": []}
+    for log in template["logs"]:
+        effects = list(log.get("effects", ()))
+        if case.effect != CLEAN:
+            effects.append({"kind": case.effect, **case.params})
+        config["logs"].append({**log, "effects": effects})
+    return config
+
+
+def experiment_for(template: dict[str, Any], folder: Path, index: list[dict]) -> dict[str, Any]:
+    """The experiment config of a simulated folder: the template with its logs filled in."""
+    roles = {"dynamic": "dynamic", "free_fall": "free_fall"}
+    logs = [
+        {
+            "path": str(folder / entry["file"]),
+            "columns": str(folder / entry["columns"]),
+            "role": roles[entry["kind"]],
+        }
+        for entry in index
+        if entry["kind"] in roles
+    ]
+    return {**template, "logs": logs}
+
+
+def outcome(case: Case, result) -> dict[str, Any]:
+    """What the loop concluded on ``case`` (a :class:`hmid.loop.LoopResult`), and whether that
+    was right."""
+    added = [e.name for e in result.effects]
+    first = added[0] if added else None
+    row = case.to_dict() | {
+        "first": first,
+        "added": " + ".join(added),
+        "verdict": result.verdict,
+        "rmse before [N]": result.before.rmse,
+        "rmse after [N]": result.after.rmse,
+    }
+    if case.effect == CLEAN:
+        row["correct"] = not added
+    elif case.expect is None:
+        row["correct"] = not added and result.verdict == "unexplained structure"
+    else:
+        row["correct"] = first == case.expect
+    return row

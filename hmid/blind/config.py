@@ -1,0 +1,86 @@
+"""A blind suite: simulated logs with an undeclared effect, run through the standard pipeline.
+
+The suite names a data-set template (``hmid simulate`` format, no extra effects), an experiment
+template (its ``logs`` are filled in per case) and the simulator effects to switch on, each at
+named strengths and with the candidate effect that should explain it (``expect: null`` for an
+effect the library deliberately lacks). Clean cases (no effect) are the negative controls.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from hmid.config import load_yaml_model
+from hmid.errors import ConfigError
+from hmid.sweep._config import ExecutorSection
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class EffectCases(_Frozen):
+    kind: str  # a simulator effect (hmid.simulate.effects)
+    expect: str | None  # the loop candidate that explains it; None: outside the library
+    strengths: Annotated[dict[str, dict[str, float]], Field(min_length=1)]
+
+    @model_validator(mode="after")
+    def _known(self) -> EffectCases:
+        from hmid.loop.candidates import CANDIDATES
+        from hmid.simulate.effects import make_effect
+
+        if self.expect is not None and self.expect not in CANDIDATES:
+            raise ValueError(f"expect {self.expect!r} is no candidate; known: {sorted(CANDIDATES)}")
+        for params in self.strengths.values():
+            try:
+                make_effect({"kind": self.kind, **params})
+            except ConfigError as err:
+                raise ValueError(str(err)) from None
+        return self
+
+
+class Targets(_Frozen):
+    """Pass marks: right effect first at ``strength``; effect added on clean data; no claim
+    (and "unexplained structure") for effects outside the library."""
+
+    strength: str = "moderate"
+    right_first: Annotated[float, Field(ge=0, le=1)] = 0.9
+    false_additions: Annotated[float, Field(ge=0, le=1)] = 0.05
+    unexplained: Annotated[float, Field(ge=0, le=1)] = 0.9
+
+
+class BlindSuite(_Frozen):
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")]
+    seed: Annotated[int, Field(ge=0)]
+    dataset: Path  # simulate config template, relative to the suite file
+    experiment: Path  # experiment template (logs are filled in), relative to the suite file
+    seeds: Annotated[int, Field(ge=1)]  # per effect and strength
+    clean_seeds: Annotated[int, Field(ge=0)]
+    effects: Annotated[tuple[EffectCases, ...], Field(min_length=1)]
+    targets: Targets = Targets()
+    executor: ExecutorSection = ExecutorSection(workers=1)
+    base_dir: Path = Path(".")
+
+    @field_validator("effects")
+    @classmethod
+    def _unique(cls, effects):
+        kinds = [e.kind for e in effects]
+        if len(set(kinds)) != len(kinds):
+            raise ValueError("an effect kind is listed twice")
+        return effects
+
+    def resolve(self, path: Path) -> Path:
+        return path if path.is_absolute() else self.base_dir / path
+
+
+def load_suite(path: str | Path) -> BlindSuite:
+    path = Path(path)
+    suite = load_yaml_model(path, BlindSuite).model_copy(update={"base_dir": path.parent})
+    for key in ("dataset", "experiment"):
+        target = suite.resolve(getattr(suite, key))
+        if not target.is_file():
+            raise ConfigError(f"{path}: key {key!r}: file {target} does not exist")
+    return suite

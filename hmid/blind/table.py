@@ -1,0 +1,63 @@
+"""The blind suite's table (effect x strength) and its pass marks."""
+
+from __future__ import annotations
+
+import pandas as pd
+
+from hmid.blind.cases import CLEAN
+from hmid.blind.config import BlindSuite
+
+
+def suite_table(outcomes: pd.DataFrame) -> pd.DataFrame:
+    """One row per effect and strength: how often the loop got it right, and the errors."""
+    rows = []
+    for (effect, strength), group in outcomes.groupby(["effect", "strength"], sort=False):
+        expect = group["expect"].iloc[0]
+        expect = None if pd.isna(expect) else expect
+        added = group["added"].fillna("") != ""
+        rows.append(
+            {
+                "effect": effect,
+                "strength": strength,
+                "expected": expect if expect is not None else ("none" if effect == CLEAN else "—"),
+                "runs": len(group),
+                "right first": (group["first"] == expect).mean() if expect else float("nan"),
+                "any effect added": added.mean(),
+                "'unexplained structure'": (group["verdict"] == "unexplained structure").mean(),
+                "correct": group["correct"].mean(),
+                "RMSE before [N]": group["rmse before [N]"].median(),
+                "RMSE after [N]": group["rmse after [N]"].median(),
+                "first named (counts)": ", ".join(
+                    f"{k}: {v}" for k, v in group["first"].fillna("none").value_counts().items()
+                ),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def check_targets(outcomes: pd.DataFrame, suite: BlindSuite) -> pd.DataFrame:
+    """Each pass mark with the measured rate; ``met`` says whether it holds."""
+    t = suite.targets
+    rows = []
+    for effect in suite.effects:
+        group = outcomes[(outcomes["effect"] == effect.kind) & (outcomes["strength"] == t.strength)]
+        if group.empty:
+            continue
+        if effect.expect is None:
+            rate = group["correct"].mean()
+            label = f"{effect.kind} ({t.strength}): no effect claimed, 'unexplained structure'"
+            rows.append((label, rate, ">=", t.unexplained))
+        else:
+            rate = (group["first"] == effect.expect).mean()
+            label = f"{effect.kind} ({t.strength}): {effect.expect} named first"
+            rows.append((label, rate, ">=", t.right_first))
+    clean = outcomes[outcomes["effect"] == CLEAN]
+    if not clean.empty:
+        rate = (clean["added"].fillna("") != "").mean()
+        rows.append(("clean: an effect added", rate, "<=", t.false_additions))
+    frame = pd.DataFrame(rows, columns=["target", "measured", "rule", "mark"])
+    frame["met"] = [
+        m >= k if r == ">=" else m <= k
+        for m, r, k in zip(frame["measured"], frame["rule"], frame["mark"], strict=True)
+    ]
+    return frame

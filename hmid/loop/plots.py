@@ -1,0 +1,68 @@
+"""Figures of the loop: residual diagnostics before and after the added effects."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from hmid.loop.diagnostics import binned_mean, signals
+from hmid.loop.engine import LoopResult
+
+_UNITS = {"x": "m", "v": "m/s", "P": "Pa", "dP/dt": "Pa/s", "t": "s"}
+
+
+def _figure(**kwargs):
+    from matplotlib.figure import Figure  # object-oriented: never touches pyplot's backend
+
+    return Figure(**kwargs)
+
+
+def plot_whiteness(result: LoopResult, path: Path) -> None:
+    """Autocorrelation with the 99 % white-noise bound, cross-correlation with the inputs, and
+    the residual spectrum, before and after."""
+    fig = _figure(figsize=(11, 6.5), layout="constrained")
+    axes = fig.subplots(2, 3)
+    for row, (label, d) in enumerate(
+        (("before", result.diagnostics_before), ("after", result.diagnostics_after))
+    ):
+        ax = axes[row, 0]
+        ax.plot(d.lags_s, d.acf, lw=1)
+        ax.axhspan(-d.acf_bound, d.acf_bound, color="0.85", label="99 % bound (white)")
+        ax.set(xlabel="lag [s]", ylabel="autocorrelation", title=f"residual ACF, {label}")
+        ax.legend(fontsize=7)
+        ax = axes[row, 1]
+        for name in d.ccf.columns:
+            ax.plot(d.ccf.index, d.ccf[name], lw=1, label=name)
+        ax.axhspan(-d.acf_bound, d.acf_bound, color="0.85")
+        ax.set(xlabel="lag [s]", ylabel="correlation", title=f"residual vs inputs, {label}")
+        ax.legend(fontsize=7)
+        ax = axes[row, 2]
+        freq, psd = d.spectrum
+        ax.semilogy(freq[1:], psd[1:], lw=1)
+        ax.set(xlabel="frequency [Hz]", ylabel="PSD [N²/Hz]", title=f"residual spectrum, {label}")
+    fig.savefig(path, dpi=110)
+
+
+def plot_structure(result: LoopResult, path: Path) -> None:
+    """Residual mean per bin of the signal that explained most of it (before) and the one
+    that explains most of what remains (after), per direction of motion."""
+    fig = _figure(figsize=(11, 4), layout="constrained")
+    axes = fig.subplots(1, 2)
+    data = result.data
+    values = signals(data)
+    rows = data.train
+    for ax, label, d, residual in (
+        (axes[0], "before", result.diagnostics_before, result.residual_before),
+        (axes[1], "after", result.diagnostics_after, result.residual_after),
+    ):
+        name, eta2 = d.strongest
+        table = binned_mean(residual, rows, values[name], data)
+        for direction, part in table.groupby("direction"):
+            ax.plot(part["centre"], part["mean"], "o-", ms=3, lw=1, label=direction)
+        ax.axhline(0, color="0.6", lw=0.8)
+        ax.set(
+            xlabel=f"{name} [{_UNITS[name]}]",
+            ylabel="mean residual [N]",
+            title=f"{label}: strongest dependence on {name} (η² = {eta2:.3f})",
+        )
+        ax.legend(fontsize=7)
+    fig.savefig(path, dpi=110)

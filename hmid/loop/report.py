@@ -1,0 +1,132 @@
+"""The loop's report section, tables and metrics."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from hmid.loop.engine import LoopResult
+from hmid.loop.plots import plot_structure, plot_whiteness
+from hmid.report import Figure, Section, Table
+
+
+def before_after(result: LoopResult) -> pd.DataFrame:
+    rows = []
+    for label, s in (
+        ("before (base)", result.before),
+        ("after (with added effects)", result.after),
+    ):
+        rows.append(
+            {
+                "model": label,
+                "error kind": s.kind,
+                "held-out RMSE [N]": s.rmse,
+                "max |error| [N]": s.max_abs_error,
+                "NRMSE fit [%]": s.nrmse_fit_pct,
+                "R²": s.r2,
+                "rows": s.n,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def diagnostics_table(result: LoopResult) -> pd.DataFrame:
+    rows = []
+    for label, d in (("before", result.diagnostics_before), ("after", result.diagnostics_after)):
+        signal, eta2 = d.strongest
+        rows.append(
+            {
+                "residual": label,
+                "RMS train [N]": d.rms,
+                "τ_int [samples]": d.tau_int,
+                "Ljung-Box p": d.ljung_box_p,
+                "Ljung-Box n": d.ljung_box_n,
+                "max |ACF| beyond lag 0": float(np.max(np.abs(d.acf[1:]))),
+                "strongest signal": signal,
+                "η² (cross-fitted)": eta2,
+                **{f"η² {k}": v for k, v in d.structure["eta2"].items()},
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def metrics(result: LoopResult) -> dict:
+    return {
+        "verdict": result.verdict,
+        "message": result.message,
+        "error_kind": "one-step",
+        "held_out_before": result.before.to_dict(),
+        "held_out_after": result.after.to_dict(),
+        "effects": [
+            {
+                "name": e.name,
+                "evidence": e.evidence,
+                "parameters": e.parameters.replace({np.nan: None}).to_dict(orient="records"),
+            }
+            for e in result.effects
+        ],
+        "hint": (
+            result.hint.terms.to_dict(orient="records") | {"heldout_r2": result.hint.heldout_r2}
+            if result.hint is not None
+            else None
+        ),
+    }
+
+
+def loop_section(result: LoopResult, figures: Path, write_csv) -> tuple[Section, dict]:
+    """The report section; ``write_csv(frame, name)`` stores a table in the run folder."""
+    plot_whiteness(result, figures / "loop_whiteness.png")
+    plot_structure(result, figures / "loop_structure.png")
+    table, diag = before_after(result), diagnostics_table(result)
+    write_csv(table, "loop_before_after.csv")
+    write_csv(diag, "loop_diagnostics.csv")
+    write_csv(result.tests, "loop_tests.csv")
+    effect_sections = []
+    for e in result.effects:
+        write_csv(e.parameters, f"loop_effect_{e.name}.csv")
+        effect_sections.append(
+            Section(
+                f"Added: {e.title}",
+                text=f"Physics: {e.physics}.\n\nEvidence: {e.evidence}.",
+                tables=(Table(e.parameters, f"{e.title}: parameters, units and intervals"),),
+            )
+        )
+    hint_tables = ()
+    if result.hint is not None:
+        write_csv(result.hint.terms, "loop_hint.csv")
+        hint_tables = (
+            Table(
+                result.hint.terms,
+                "Data-driven hint, not an identified effect: sparse regression (STLSQ) of the "
+                "residual on a generic library of standardised signals; it explains "
+                f"{100 * result.hint.heldout_r2:.0f} % of the held-out residual variance",
+            ),
+        )
+    text = (
+        f"**Verdict: {result.verdict}.** {result.message}\n\n"
+        f"Base model: {result.base_title}, `{result.base_equation}`. Errors are **one-step** on "
+        "the held-out rows. The held-out rows also confirm each effect before it is added (it "
+        "must lower their RMSE by the configured margin), so the 'after' error is the error of a "
+        "selected model. Tests count the effective sample size n / τ_int (integrated "
+        "autocorrelation time of the residual); parameter intervals use the same inflation, "
+        "which is approximate."
+    )
+    section = Section(
+        "Closing the loop: residual analysis and missing physics",
+        text=text,
+        tables=(
+            Table(table, "Held-out error before and after (one-step)"),
+            Table(result.base_parameters, "Base model parameters (before), with intervals"),
+            Table(result.tests, "Every candidate tested, per round"),
+            Table(diag, "Residual diagnostics on training rows"),
+            *hint_tables,
+        ),
+        figures=(
+            Figure(figures / "loop_structure.png", "Where the residual's structure is"),
+            Figure(figures / "loop_whiteness.png", "Whiteness and independence, before and after"),
+        ),
+        subsections=tuple(effect_sections),
+    )
+    return section, metrics(result)
