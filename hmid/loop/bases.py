@@ -50,6 +50,11 @@ class Base(BaseModel, ABC):
     @abstractmethod
     def equation(self) -> str: ...
 
+    def friction_sign(self, params: dict[str, float]) -> float:
+        """+1 if friction enters the target as -f sign(v) (the candidates' convention), -1 if a
+        log's direction convention makes it +f sign(v)."""
+        return 1.0
+
 
 class SLSBase(Base):
     """Standard linear solid; the Maxwell arm's tau is profiled on ``n_tau`` log-spaced values."""
@@ -67,13 +72,14 @@ class SLSBase(Base):
         return tuple(np.geomspace(self.tau_min, self.tau_max, self.n_tau))
 
     def arms(self, data: LoopData, cache: dict | None = None) -> np.ndarray:
-        """g_tau(x) for every tau of the grid, shape (n, n_tau): one scan per segment."""
+        """g_tau(x) for every tau of the grid, shape (n_tau, n) (one row per tau, contiguous):
+        one scan per segment."""
         if cache is not None and "sls arms" in cache:
             return cache["sls arms"]
         from hmid.models.sls._recursion import unit_response
 
         t, x, grid = data["t"], data["x"], np.asarray(self.grid)
-        out = np.empty((len(data), len(grid)))
+        out = np.empty((len(grid), len(data)))
         with jax.enable_x64(True):
             for rows in data.segments():
                 start = np.zeros(len(rows), dtype=bool)
@@ -84,7 +90,7 @@ class SLSBase(Base):
                     jnp.asarray(start),
                     jnp.asarray(grid),
                 )
-                out[rows] = np.asarray(response)
+                out[:, rows] = np.asarray(response).T
         if cache is not None:
             cache["sls arms"] = out
         return out
@@ -93,7 +99,7 @@ class SLSBase(Base):
         index = int(np.argmin(np.abs(np.log(np.asarray(self.grid) / tau))))
         if not np.isclose(self.grid[index], tau, rtol=1e-12):
             raise ValueError(f"tau={tau} is not on the grid")
-        return self.arms(data, cache)[:, index]
+        return self.arms(data, cache)[index]
 
     def columns(self, data, value, cache=None):
         x = data["x"]
@@ -127,6 +133,11 @@ class PistonBase(Base):
 
     def equation(self) -> str:
         return "F = A P + F0 - Fc sign(v)"
+
+    def friction_sign(self, params):
+        # which way the rod force counts friction depends on the rig's sign conventions; the
+        # fitted Coulomb level tells
+        return 1.0 if params["Fc"] >= 0 else -1.0
 
 
 BaseSpec = Annotated[SLSBase | PistonBase, Field(discriminator="kind")]

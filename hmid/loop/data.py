@@ -90,3 +90,48 @@ def from_sequences(sequences: Mapping[str, pd.DataFrame], target: str = "F_m") -
     if not frames:
         raise ConfigError("loop: there are no dynamic logs to analyse")
     return LoopData(pd.concat(frames, ignore_index=True))
+
+
+def from_segments(
+    segments: Mapping[str, list],
+    *,
+    target: str,
+    validation: set[str],
+    v_deadband: float,
+    reach: int,
+) -> LoopData:
+    """From denoised log pieces (channels x, v, P and ``target``), whole logs held out.
+
+    ``segments`` maps a log name to its contiguous pieces (:func:`hmid.io.segments.split_at_gaps`
+    then denoised); ``t`` counts from each log's first sample. Rows within ``reach`` samples of a
+    piece's ends (the derivative is less accurate there) or with ``|v| < v_deadband`` (direction
+    unknown) are neither trained on nor scored; they stay for the signals.
+    """
+    frames, segment = [], 0
+    for name, pieces in segments.items():
+        t0 = pieces[0].t[0]
+        for piece in pieces:
+            n = len(piece)
+            usable = np.abs(piece["v"]) >= v_deadband
+            usable[: min(reach, n)] = False
+            usable[max(n - reach, 0) :] = False
+            held = name in validation
+            frames.append(
+                pd.DataFrame(
+                    {
+                        "log": name,
+                        "segment": segment,
+                        "t": piece.t - t0,
+                        "x": piece["x"],
+                        "v": piece["v"],
+                        "P": piece["P"],
+                        "y": piece[target],
+                        "train": usable & (not held),
+                        "validation": usable & held,
+                    }
+                )
+            )
+            segment += 1
+    if not frames:
+        raise ConfigError("loop: there are no logs to analyse")
+    return LoopData(pd.concat(frames, ignore_index=True))

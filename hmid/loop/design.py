@@ -42,7 +42,12 @@ class Columns:
 
 @dataclass(frozen=True)
 class LeastSquares:
-    """Least squares of ``y`` on columns over the masked rows (columns scaled for conditioning)."""
+    """Least squares of ``y`` on columns over the masked rows.
+
+    Solved from the normal equations of the scaled columns (the loop fits hundreds of designs
+    of a few columns on tens of thousands of rows; the Gram matrix is one BLAS call) with an
+    SVD pseudo-inverse, so a rank-deficient design still gives the minimum-norm solution.
+    """
 
     coef: np.ndarray
     sse: float
@@ -50,13 +55,16 @@ class LeastSquares:
 
     @classmethod
     def fit(cls, columns: Columns, y: np.ndarray, rows: np.ndarray) -> LeastSquares:
-        X = columns.values[rows]
-        scale = np.max(np.abs(X), axis=0)
+        X, target = columns.values[rows], y[rows]
+        scale = np.sqrt(np.einsum("ij,ij->j", X, X))
         scale[scale == 0] = 1.0
-        coef, *_ = np.linalg.lstsq(X / scale, y[rows], rcond=None)
-        coef = coef / scale
-        residual = y[rows] - X @ coef
-        return cls(coef, float(residual @ residual), int(rows.sum()))
+        Xs = X / scale
+        gram, moment = Xs.T @ Xs, Xs.T @ target
+        coef_s = np.linalg.pinv(gram, rcond=1e-12, hermitian=True) @ moment
+        sse = float(target @ target - 2 * coef_s @ moment + coef_s @ gram @ coef_s)
+        if sse < 1e-9 * float(target @ target):  # cancellation: recompute directly
+            sse = float(np.sum((target - Xs @ coef_s) ** 2))
+        return cls(coef_s / scale, max(sse, 0.0), int(rows.sum()))
 
     def predict(self, columns: Columns) -> np.ndarray:
         return columns.values @ self.coef

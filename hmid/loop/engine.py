@@ -7,6 +7,7 @@ profiled parameters are chosen on fixed grids and fits are least squares.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 import pandas as pd
@@ -57,8 +58,16 @@ class Structure:
         elastic = self.elastic if self.elastic is not None else np.zeros(len(data))
         for term in self.effects:
             extra = term.candidate.columns(seen, term.value, elastic)
-            # a correction two effects share (the Coulomb level) enters once
-            keep = [i for i, n in enumerate(extra.names) if n not in columns.names]
+            # a correction two effects share, or one the base has (the Coulomb level), enters once
+            keep = [
+                i
+                for i, name in enumerate(extra.names)
+                if name not in columns.names
+                and not any(
+                    np.array_equal(extra.values[:, i], columns.values[:, j])
+                    for j in range(columns.width)
+                )
+            ]
             columns = columns + Columns(
                 tuple(extra.names[i] for i in keep),
                 tuple(extra.units[i] for i in keep),
@@ -72,7 +81,12 @@ class StructureFit:
     structure: Structure
     columns: Columns
     fit: LeastSquares
-    residual: np.ndarray  # every row
+    y: np.ndarray = field(repr=False)
+
+    @cached_property
+    def residual(self) -> np.ndarray:
+        """On every row (fitted on the training rows only)."""
+        return self.y - self.fit.predict(self.columns)
 
     @property
     def params(self) -> dict[str, float]:
@@ -86,7 +100,7 @@ class StructureFit:
 def _fit(structure: Structure, data: LoopData, cache: dict) -> StructureFit:
     columns = structure.columns(data, cache)
     fit = LeastSquares.fit(columns, data["y"], data.train)
-    return StructureFit(structure, columns, fit, data["y"] - fit.predict(columns))
+    return StructureFit(structure, columns, fit, data["y"])
 
 
 def _descend(structure: Structure, data: LoopData, cache: dict) -> StructureFit:
@@ -167,10 +181,11 @@ def _screen(current: StructureFit, candidate: Candidate, data, spec, cache):
     it on the effective sample size of the *augmented* model's residual: the current residual
     still holds the effect, whose persistence would inflate tau_int and hide it."""
     base = current.structure
+    sign = base.base.friction_sign(current.params)
     for _ in range(3):
         fits = [_fit(base.plus(Term(candidate, g)), data, cache) for g in candidate.grid]
         sse = np.array([f.fit.sse for f in fits])
-        signs = np.array([all(f.params[k] > 0 for k in candidate.positive) for f in fits])
+        signs = np.array([all(sign * f.params[k] > 0 for k in candidate.positive) for f in fits])
         best = int(np.argmin(np.where(signs, sse, np.inf))) if signs.any() else int(np.argmin(sse))
         joint = _descend(base.plus(Term(candidate, candidate.grid[best])), data, cache)
         if joint.structure.base_value == base.base_value:
@@ -182,7 +197,7 @@ def _screen(current: StructureFit, candidate: Candidate, data, spec, cache):
     test = NestedTest.of(current.fit.sse, joint.fit.sse, q, p1, current.fit.n, n_eff)
     grid = np.array([np.nan if g is None else g for g in candidate.grid], dtype=float)
     interval = profile_interval(grid, sse, n_eff, spec.confidence) if candidate.hyper else None
-    identified = bool(signs[best]) and all(joint.params[k] > 0 for k in candidate.positive)
+    identified = bool(signs[best]) and all(sign * joint.params[k] > 0 for k in candidate.positive)
     return candidate.grid[best], test, interval, identified, n_eff, joint.fit.sse
 
 
@@ -192,6 +207,14 @@ def _parameters(fitted: StructureFit, data: LoopData, tau_int: float, confidence
 
 def run_loop(data: LoopData, spec: LoopSpec) -> LoopResult:
     """Diagnose, test, confirm and add effects; then say what remains."""
+    from threadpoolctl import threadpool_limits
+
+    # hundreds of small least-squares problems: BLAS threads only contend for the cores
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _run_loop(data, spec)
+
+
+def _run_loop(data: LoopData, spec: LoopSpec) -> LoopResult:
     candidates = make_candidates(spec.candidates)
     data = data.trim_segment_ends(max((c.tail_s for c in candidates), default=0.0))
     cache: dict = {}
@@ -232,6 +255,9 @@ def run_loop(data: LoopData, spec: LoopSpec) -> LoopResult:
         candidate, trial, evidence, interval = added
         table = _parameters(trial, data, _tau_int(trial.residual, data), spec.confidence)
         own = table[~table["parameter"].isin(current.columns.names)]
+        sign = trial.structure.base.friction_sign(trial.params)
+        if candidate.friction and sign < 0:  # shown as friction, whatever the log's convention
+            own = own.assign(value=-own["value"], lower=-own["upper"], upper=-own["lower"])
         value = trial.structure.effects[-1].value
         effects.append(_effect(candidate, own, value, interval, evidence, held_rmse))
         remaining.remove(candidate)

@@ -3,6 +3,7 @@ of the residual on a generic library of the signals. It names terms, not physics
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,7 +51,9 @@ def sparse_hint(residual: np.ndarray, data: LoopData) -> Hint:
     best = None
     for threshold in np.geomspace(1e-3, 1.0, 25) * np.std(residual[train]):
         opt = STLSQ(threshold=threshold, alpha=1e-6, max_iter=50)
-        opt.fit(X.to_numpy()[train], residual[train].reshape(-1, 1))
+        with warnings.catch_warnings():  # a threshold that removes every term is part of the scan
+            warnings.filterwarnings("ignore", "Sparsity parameter is too big", UserWarning)
+            opt.fit(X.to_numpy()[train], residual[train].reshape(-1, 1))
         coef = np.asarray(opt.coef_).ravel()
         if 0 < np.count_nonzero(coef) <= MAX_TERMS:
             r2 = 1.0 - float(((r_held - X.to_numpy()[held] @ coef) ** 2).sum()) / total

@@ -68,24 +68,35 @@ def metrics(result: LoopResult) -> dict:
             for e in result.effects
         ],
         "hint": (
-            result.hint.terms.to_dict(orient="records") | {"heldout_r2": result.hint.heldout_r2}
+            {
+                "terms": result.hint.terms.to_dict(orient="records"),
+                "heldout_r2": result.hint.heldout_r2,
+            }
             if result.hint is not None
             else None
         ),
     }
 
 
-def loop_section(result: LoopResult, figures: Path, write_csv) -> tuple[Section, dict]:
-    """The report section; ``write_csv(frame, name)`` stores a table in the run folder."""
-    plot_whiteness(result, figures / "loop_whiteness.png")
-    plot_structure(result, figures / "loop_structure.png")
+def loop_section(
+    result: LoopResult,
+    figures: Path,
+    write_csv,
+    *,
+    prefix: str = "loop",
+    title: str = "Closing the loop: residual analysis and missing physics",
+) -> tuple[Section, dict]:
+    """The report section; ``write_csv(frame, name)`` stores a table in the run folder; file
+    names start with ``prefix``."""
+    plot_whiteness(result, figures / f"{prefix}_whiteness.png")
+    plot_structure(result, figures / f"{prefix}_structure.png")
     table, diag = before_after(result), diagnostics_table(result)
-    write_csv(table, "loop_before_after.csv")
-    write_csv(diag, "loop_diagnostics.csv")
-    write_csv(result.tests, "loop_tests.csv")
+    write_csv(table, f"{prefix}_before_after.csv")
+    write_csv(diag, f"{prefix}_diagnostics.csv")
+    write_csv(result.tests, f"{prefix}_tests.csv")
     effect_sections = []
     for e in result.effects:
-        write_csv(e.parameters, f"loop_effect_{e.name}.csv")
+        write_csv(e.parameters, f"{prefix}_effect_{e.name}.csv")
         effect_sections.append(
             Section(
                 f"Added: {e.title}",
@@ -95,7 +106,7 @@ def loop_section(result: LoopResult, figures: Path, write_csv) -> tuple[Section,
         )
     hint_tables = ()
     if result.hint is not None:
-        write_csv(result.hint.terms, "loop_hint.csv")
+        write_csv(result.hint.terms, f"{prefix}_hint.csv")
         hint_tables = (
             Table(
                 result.hint.terms,
@@ -114,7 +125,7 @@ def loop_section(result: LoopResult, figures: Path, write_csv) -> tuple[Section,
         "which is approximate."
     )
     section = Section(
-        "Closing the loop: residual analysis and missing physics",
+        title,
         text=text,
         tables=(
             Table(table, "Held-out error before and after (one-step)"),
@@ -124,8 +135,10 @@ def loop_section(result: LoopResult, figures: Path, write_csv) -> tuple[Section,
             *hint_tables,
         ),
         figures=(
-            Figure(figures / "loop_structure.png", "Where the residual's structure is"),
-            Figure(figures / "loop_whiteness.png", "Whiteness and independence, before and after"),
+            Figure(figures / f"{prefix}_structure.png", "Where the residual's structure is"),
+            Figure(
+                figures / f"{prefix}_whiteness.png", "Whiteness and independence, before and after"
+            ),
         ),
         subsections=tuple(effect_sections),
     )

@@ -66,6 +66,8 @@ class NestedTest:
 
     @classmethod
     def of(cls, sse0: float, sse1: float, q: int, p1: int, n: int, n_eff: float) -> NestedTest:
+        if q == 0:  # the candidate adds nothing the model lacks (e.g. a level it already has)
+            return cls(0.0, 1.0, 0.0, 0)
         df = max(n_eff - p1, 1.0)
         f = max(sse0 - sse1, 0.0) / q / (sse1 / df)
         delta_bic = n_eff * np.log(sse1 / sse0) + q * np.log(n_eff)

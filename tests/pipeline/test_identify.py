@@ -199,3 +199,24 @@ def test_rig_without_load_cell_uses_acceleration(workspace):
     rig = {"M": 0.25, "m1": 0.5, "force_source": "acceleration"}
     _, metrics = run(_config(workspace, rig=rig), results=workspace / "results-acc")
     assert np.isfinite(metrics["held_out"][0]["rmse (held-out)"])
+
+
+def test_the_loop_section_is_in_the_report_with_before_and_after(workspace):
+    loop = {"base": {"kind": "sls"}, "margin": 0.03}
+    run_dir, metrics = run(_config(workspace, loop=loop), results=workspace / "results")
+    result = metrics["loop"]
+    assert result["verdict"] in ("explained", "unexplained structure", "no attributable structure")
+    assert result["error_kind"] == "one-step"
+    assert result["held_out_after"]["rmse"] <= result["held_out_before"]["rmse"]
+    text = (run_dir / "report.md").read_text(encoding="utf-8")
+    assert "Closing the loop" in text and "Held-out error before and after (one-step)" in text
+    for name in ("loop_before_after.csv", "loop_tests.csv", "loop_diagnostics.csv"):
+        assert (run_dir / "tables" / name).is_file()
+    assert (run_dir / "figures" / "loop_whiteness.png").is_file()
+
+
+def test_an_unknown_loop_candidate_is_a_one_line_config_error(workspace):
+    path = _config(workspace, loop={"candidates": ["viscous", "magic"]})
+    with pytest.raises(ConfigError, match="magic") as err:
+        load_experiment(path)
+    assert "\n" not in str(err.value)

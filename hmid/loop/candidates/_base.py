@@ -35,8 +35,10 @@ class Candidate:
     # not a Stribeck curve; a lag of zero is no lag)
     edges_identified: ClassVar[tuple[bool, bool]] = (True, True)
     # parameters that physics makes positive (a friction that *grows* with speed is not a
-    # negative Stribeck bump): a fit with another sign is not this effect
+    # negative Stribeck bump): a fit with another sign is not this effect. "Positive" means the
+    # sign of friction in the base's convention (Base.friction_sign)
     positive: ClassVar[tuple[str, ...]] = ()
+    friction: ClassVar[bool] = False  # its linear parameters are friction coefficients
 
     def identified(self, value: float | None) -> bool:
         if value is None or len(self.grid) < 2:

@@ -13,6 +13,7 @@ from hmid.loop.design import Columns
 
 class ViscousFriction(Candidate):
     name: ClassVar[str] = "viscous"
+    friction: ClassVar[bool] = True
     title: ClassVar[str] = "viscous friction"
     physics: ClassVar[str] = (
         "friction growing linearly with speed, b v (lubricated guide, fluid drag, or damping "
@@ -28,6 +29,7 @@ class ViscousFriction(Candidate):
 
 class StribeckFriction(Candidate):
     name: ClassVar[str] = "stribeck"
+    friction: ClassVar[bool] = True
     title: ClassVar[str] = "Stribeck friction"
     physics: ClassVar[str] = (
         "extra friction at low speed that fades as a lubricant film builds up, "
@@ -45,6 +47,7 @@ class StribeckFriction(Candidate):
 
 class PressureFriction(Candidate):
     name: ClassVar[str] = "pressure_friction"
+    friction: ClassVar[bool] = True
     title: ClassVar[str] = "pressure-dependent friction"
     physics: ClassVar[str] = (
         "friction proportional to pressure, mu P sign(v): a pressurised seal or sheath pressed "
@@ -63,6 +66,7 @@ class Hysteresis(Candidate):
     rig elongation follows pressure (sign(v) x ~ sign(v) (a + b P))."""
 
     name: ClassVar[str] = "hysteresis"
+    friction: ClassVar[bool] = True
     title: ClassVar[str] = "direction-dependent force (hysteresis band)"
     physics: ClassVar[str] = (
         "a force offset that changes sign with the direction of motion, -h sign(v): a "

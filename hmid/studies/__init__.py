@@ -1,0 +1,1 @@
+"""Studies on measured data that go beyond the identification pipeline."""

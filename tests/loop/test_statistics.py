@@ -1,0 +1,88 @@
+"""Autocorrelation over gaps, integrated time, nested tests and intervals."""
+
+import numpy as np
+import pandas as pd
+from statsmodels.tsa.stattools import acf
+
+from hmid.loop import LoopData
+from hmid.loop.statistics import (
+    NestedTest,
+    autocorrelation,
+    integrated_time,
+    masked_series,
+    profile_interval,
+)
+
+
+def _data(n: int, rows: np.ndarray, segments: int = 2) -> LoopData:
+    frame = pd.DataFrame(
+        {
+            "log": "a",
+            "segment": np.repeat(np.arange(segments), n // segments),
+            "t": np.arange(n) * 1e-3,
+            "x": 0.0,
+            "v": 0.0,
+            "P": 0.0,
+            "y": 0.0,
+            "train": rows,
+            "validation": False,
+        }
+    )
+    return LoopData(frame)
+
+
+def test_acf_equals_statsmodels_pairwise_over_gaps():
+    rng = np.random.default_rng(1)
+    n = 4000
+    x = np.convolve(rng.normal(size=n + 20), np.ones(20) / 20, "valid")[:n]
+    rows = rng.random(n) > 0.2
+    data = _data(n, rows)
+    ours = autocorrelation(x, rows, data, 30)
+    series = masked_series(x - x[rows].mean(), rows, data, 30)
+    reference = acf(series, nlags=30, missing="conservative", adjusted=True, fft=False)
+    np.testing.assert_allclose(ours, reference, atol=1e-12)
+
+
+def test_integrated_time_of_an_ar1_process():
+    rng = np.random.default_rng(2)
+    phi, n = 0.9, 200_000
+    e = rng.normal(size=n)
+    x = np.empty(n)
+    x[0] = e[0]
+    for i in range(1, n):
+        x[i] = phi * x[i - 1] + e[i]
+    rows = np.ones(n, dtype=bool)
+    tau = integrated_time(autocorrelation(x, rows, _data(n, rows, 1), 400))
+    assert abs(tau / ((1 + phi) / (1 - phi)) - 1) < 0.1
+
+
+def test_a_window_that_never_closes_gives_a_lower_bound_not_zero():
+    assert integrated_time(np.ones(50)) == 99.0
+
+
+def test_nested_f_test_is_calibrated_under_the_null():
+    rng = np.random.default_rng(3)
+    n, rejections = 400, 0
+    X = np.column_stack([np.ones(n), np.linspace(0, 1, n)])
+    extra = rng.normal(size=(n, 1))
+    for _ in range(400):
+        y = X @ [1.0, 2.0] + rng.normal(size=n)
+        sse0 = np.sum((y - X @ np.linalg.lstsq(X, y, rcond=None)[0]) ** 2)
+        X1 = np.hstack([X, extra])
+        sse1 = np.sum((y - X1 @ np.linalg.lstsq(X1, y, rcond=None)[0]) ** 2)
+        rejections += NestedTest.of(sse0, sse1, 1, 3, n, n).p_value < 0.05
+    assert 0.03 < rejections / 400 < 0.075
+
+
+def test_a_candidate_that_adds_nothing_is_never_significant():
+    test = NestedTest.of(10.0, 10.0, 0, 3, 100, 100)
+    assert (test.f, test.p_value, test.q) == (0.0, 1.0, 0)
+
+
+def test_profile_interval_holds_the_minimum_and_widens_with_less_data():
+    grid = np.linspace(0, 1, 21)
+    sse = 100 * (1 + (grid - 0.5) ** 2)
+    narrow = profile_interval(grid, sse, 1000, 0.95)
+    wide = profile_interval(grid, sse, 50, 0.95)
+    assert narrow[0] <= 0.5 <= narrow[1]
+    assert wide[0] <= narrow[0] and wide[1] >= narrow[1] and wide != narrow
