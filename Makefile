@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint demo-data bench clean
+.PHONY: demo test lint demo-data bench blind study clean
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -31,6 +31,14 @@ demo-data: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
+
+## blind: the full blind suite of the loop (about half an hour on 2 cores)
+blind: $(STAMP)
+	$(BIN)/hmid blind configs/blind/full.yaml --workers 2
+
+## study: the loop on the measured pneumatic-cylinder logs (skips if ../shared is absent)
+study: $(STAMP)
+	$(BIN)/hmid study configs/studies/pneumatic.yaml
 
 clean:
 	rm -rf $(VENV)

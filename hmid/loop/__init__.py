@@ -5,7 +5,8 @@ from hmid.loop.bases import PistonBase, SLSBase
 from hmid.loop.candidates import CANDIDATES, Candidate
 from hmid.loop.config import LoopSpec
 from hmid.loop.data import LoopData, from_sequences
-from hmid.loop.engine import Effect, LoopResult, run_loop
+from hmid.loop.engine import run_loop
+from hmid.loop.result import Effect, LoopResult
 
 __all__ = [
     "CANDIDATES",

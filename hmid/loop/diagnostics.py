@@ -170,3 +170,9 @@ def diagnose(
         spectrum=(freq, psd),
         rms=float(np.sqrt(np.mean(residual[rows] ** 2))),
     )
+
+
+def residual_tau_int(residual: np.ndarray, data: LoopData) -> float:
+    """Integrated autocorrelation time of the training residual, with lags up to 10 s."""
+    nlags = min(lag_count(data, 10.0), max(int(data.train.sum()) // 20, 2))
+    return integrated_time(autocorrelation(residual, data.train, data, nlags))

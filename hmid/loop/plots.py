@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from hmid.loop.diagnostics import binned_mean, signals
-from hmid.loop.engine import LoopResult
+from hmid.loop.result import LoopResult
 
 _UNITS = {"x": "m", "v": "m/s", "P": "Pa", "dP/dt": "Pa/s", "t": "s"}
 

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from hmid.loop.engine import LoopResult
 from hmid.loop.plots import plot_structure, plot_whiteness
+from hmid.loop.result import LoopResult
 from hmid.report import Figure, Section, Table
 
 
@@ -44,6 +44,7 @@ def diagnostics_table(result: LoopResult) -> pd.DataFrame:
                 "Ljung-Box p": d.ljung_box_p,
                 "Ljung-Box n": d.ljung_box_n,
                 "max |ACF| beyond lag 0": float(np.max(np.abs(d.acf[1:]))),
+                **{f"max |ccf| {k}": float(np.nanmax(np.abs(d.ccf[k]))) for k in d.ccf.columns},
                 "strongest signal": signal,
                 "η² (cross-fitted)": eta2,
                 **{f"η² {k}": v for k, v in d.structure["eta2"].items()},

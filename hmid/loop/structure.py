@@ -1,0 +1,130 @@
+"""A model under test, the base at a hyperparameter value plus added effects, and its fit.
+
+Fits are least squares on the training rows; the base's hyperparameter (the SLS relaxation
+time) is profiled on its grid, by a full scan or by a walk from the current value.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+
+import numpy as np
+
+from hmid.loop.bases import Base
+from hmid.loop.candidates import Candidate
+from hmid.loop.data import LoopData
+from hmid.loop.design import Columns, LeastSquares
+from hmid.loop.statistics import inference
+from hmid.metrics import Scores, score
+
+
+@dataclass(frozen=True)
+class Term:
+    candidate: Candidate
+    value: float | None
+
+
+@dataclass(frozen=True)
+class Structure:
+    """Base at a hyperparameter value plus added effects; ``elastic`` from the last base fit."""
+
+    base: Base
+    base_value: float | None
+    effects: tuple[Term, ...] = ()
+    elastic: np.ndarray | None = None
+
+    def plus(self, term: Term) -> Structure:
+        return replace(self, effects=(*self.effects, term))
+
+    def data_for(self, data: LoopData) -> LoopData:
+        for term in self.effects:
+            data = term.candidate.transform(data, term.value)
+        return data
+
+    def columns(self, data: LoopData, cache: dict | None = None) -> Columns:
+        seen = self.data_for(data)
+        columns = self.base.columns(seen, self.base_value, cache)
+        elastic = self.elastic if self.elastic is not None else np.zeros(len(data))
+        for term in self.effects:
+            extra = term.candidate.columns(seen, term.value, elastic)
+            # a correction two effects share, or one the base has (the Coulomb level), enters once
+            keep = [
+                i
+                for i, name in enumerate(extra.names)
+                if name not in columns.names
+                and not any(
+                    np.array_equal(extra.values[:, i], columns.values[:, j])
+                    for j in range(columns.width)
+                )
+            ]
+            columns = columns + Columns(
+                tuple(extra.names[i] for i in keep),
+                tuple(extra.units[i] for i in keep),
+                extra.values[:, keep],
+            )
+        return columns
+
+
+@dataclass(frozen=True)
+class StructureFit:
+    structure: Structure
+    columns: Columns
+    fit: LeastSquares
+    y: np.ndarray = field(repr=False)
+
+    @cached_property
+    def residual(self) -> np.ndarray:
+        """On every row (fitted on the training rows only)."""
+        return self.y - self.fit.predict(self.columns)
+
+    @property
+    def params(self) -> dict[str, float]:
+        return dict(zip(self.columns.names, self.fit.coef, strict=True))
+
+    def held_out(self, data: LoopData) -> Scores:
+        rows = data.validation
+        return score(data["y"][rows], data["y"][rows] - self.residual[rows], "one-step")
+
+
+def fit_structure(structure: Structure, data: LoopData, cache: dict) -> StructureFit:
+    columns = structure.columns(data, cache)
+    fit = LeastSquares.fit(columns, data["y"], data.train)
+    return StructureFit(structure, columns, fit, data["y"])
+
+
+def descend(structure: Structure, data: LoopData, cache: dict) -> StructureFit:
+    """The base hyperparameter near the current one: walk the grid while the SSE falls."""
+    grid = structure.base.grid
+    best = fit_structure(structure, data, cache)
+    if len(grid) == 1:
+        return best
+    start = grid.index(structure.base_value)
+    for step in (-1, 1):
+        j = start + step
+        while 0 <= j < len(grid):
+            trial = fit_structure(replace(structure, base_value=grid[j]), data, cache)
+            if trial.fit.sse >= best.fit.sse:
+                break
+            best, j = trial, j + step
+        if best.structure.base_value != structure.base_value:
+            break
+    return best
+
+
+def refit(structure: Structure, data: LoopData, cache: dict, *, full: bool = False):
+    """Re-profile the base's hyperparameter with the effects in (the whole grid, or a walk from
+    the current value), then update the elastic force the drift terms use."""
+    if full:
+        grid = structure.base.grid
+        sse = [fit_structure(replace(structure, base_value=v), data, cache).fit.sse for v in grid]
+        structure = replace(structure, base_value=grid[int(np.argmin(sse))])
+    best = descend(structure, data, cache)
+    s = best.structure
+    elastic = s.base.elastic(s.data_for(data), s.base_value, best.params, cache)
+    return fit_structure(replace(s, elastic=elastic), data, cache)
+
+
+def parameters(fitted: StructureFit, data: LoopData, tau_int: float, confidence: float):
+    """The fitted parameters with intervals (standard errors inflated by tau_int)."""
+    return inference(fitted.columns, data["y"], data.train, tau_int, confidence)
