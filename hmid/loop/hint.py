@@ -1,9 +1,14 @@
-"""A data-driven hint for structure no candidate explains: a sparse regression (pysindy's STLSQ)
-of the residual on a generic library of the signals. It names terms, not physics."""
+"""Data-driven hints for structure no candidate explains. They name terms, not physics:
+
+* a sparse regression (orthogonal matching pursuit) of the residual on a generic library of the
+  signals;
+* a periodicity check (Lomb-Scargle, scipy) of the residual, and of residual x sign(v), against
+  the signal it depends on most: oscillation along a coordinate is a fingerprint that no
+  polynomial library shows.
+"""
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,6 +24,7 @@ MAX_TERMS = 6
 class Hint:
     terms: pd.DataFrame  # term, coefficient (on standardised signals), held-out share
     heldout_r2: float  # share of the held-out residual variance the sparse fit explains
+    periodic: str = ""  # a dominant period of the residual along its strongest signal
 
 
 def library(data: LoopData) -> pd.DataFrame:
@@ -39,30 +45,63 @@ def library(data: LoopData) -> pd.DataFrame:
     return pd.DataFrame(feats)
 
 
-def sparse_hint(residual: np.ndarray, data: LoopData) -> Hint:
-    """STLSQ over a threshold grid; the sparsest fit (at most MAX_TERMS terms) with the best
-    held-out share of residual variance."""
-    from pysindy.optimizers import STLSQ
+def sparse_hint(residual: np.ndarray, data: LoopData, signal: str | None = None) -> Hint:
+    """Orthogonal matching pursuit (scikit-learn) with 1..MAX_TERMS terms, fitted on the training
+    rows; the size with the best held-out share of residual variance is kept. (Thresholded least
+    squares such as STLSQ jumps from many terms to none on this collinear library.) With
+    ``signal``, also its periodicity check."""
+    from sklearn.linear_model import OrthogonalMatchingPursuit
 
     X = library(data)
+    values = X.to_numpy()
     train, held = data.train, data.validation
     r_held = residual[held]
     total = float(((r_held - r_held.mean()) ** 2).sum())
     best = None
-    for threshold in np.geomspace(1e-3, 1.0, 25) * np.std(residual[train]):
-        opt = STLSQ(threshold=threshold, alpha=1e-6, max_iter=50)
-        with warnings.catch_warnings():  # a threshold that removes every term is part of the scan
-            warnings.filterwarnings("ignore", "Sparsity parameter is too big", UserWarning)
-            opt.fit(X.to_numpy()[train], residual[train].reshape(-1, 1))
-        coef = np.asarray(opt.coef_).ravel()
-        if 0 < np.count_nonzero(coef) <= MAX_TERMS:
-            r2 = 1.0 - float(((r_held - X.to_numpy()[held] @ coef) ** 2).sum()) / total
-            if best is None or r2 > best[0]:
-                best = (r2, coef)
-    if best is None:
-        return Hint(pd.DataFrame(columns=["term", "coefficient"]), 0.0)
+    for k in range(1, MAX_TERMS + 1):
+        fit = OrthogonalMatchingPursuit(n_nonzero_coefs=k, fit_intercept=False)
+        fit.fit(values[train], residual[train])
+        r2 = 1.0 - float(((r_held - values[held] @ fit.coef_) ** 2).sum()) / total
+        if best is None or r2 > best[0] + 0.01:  # a term must earn 1 % of held-out variance
+            best = (r2, fit.coef_.copy())
+    periodic = periodicity(residual, data, signal) if signal else ""
     r2, coef = best
     used = np.flatnonzero(coef)
     order = used[np.argsort(-np.abs(coef[used]))]
     terms = pd.DataFrame({"term": X.columns[order], "coefficient [N]": coef[order]})
-    return Hint(terms.reset_index(drop=True), float(r2))
+    return Hint(terms.reset_index(drop=True), float(r2), periodic)
+
+
+UNITS = {"x": ("mm", 1e3), "v": ("mm/s", 1e3), "P": ("kPa", 1e-3), "dP/dt": ("kPa/s", 1e-3),
+         "t": ("s", 1.0)}  # fmt: skip
+MIN_SHARE = 0.1  # a period is reported when one sinusoid explains this share of the residual
+
+
+def periodicity(residual: np.ndarray, data: LoopData, signal: str, points: int = 6000) -> str:
+    """The dominant period of the residual (or of residual x sign(v)) along ``signal``, if one
+    sinusoid in it explains at least MIN_SHARE of the variance; "" otherwise."""
+    from scipy.signal import lombscargle
+
+    rows = np.flatnonzero(data.train)
+    rows = rows[np.linspace(0, len(rows) - 1, min(points, len(rows))).astype(int)]
+    s = signals(data)[signal][rows]
+    span = float(np.ptp(s))
+    spacing = float(np.median(np.diff(np.sort(s)))) or span / len(s)
+    if span <= 0:
+        return ""
+    freqs = 2 * np.pi * np.geomspace(2 / span, 1 / (50 * spacing), 800)
+    found = []
+    for label, r in (("residual", residual[rows]), ("residual x sign(v)",
+                      residual[rows] * np.sign(data["v"][rows]))):  # fmt: skip
+        r = r - r.mean()
+        power = lombscargle(s, r, freqs, normalize=True)
+        k = int(np.argmax(power))
+        found.append((float(power[k]), label, 2 * np.pi / freqs[k]))
+    share, label, period = max(found)
+    if share < MIN_SHARE:
+        return ""
+    unit, factor = UNITS[signal]
+    return (
+        f"{label} oscillates along {signal} with period {period * factor:.3g} {unit} "
+        f"(one sinusoid explains {100 * share:.0f} % of its variance)"
+    )

@@ -72,6 +72,7 @@ def metrics(result: LoopResult) -> dict:
             {
                 "terms": result.hint.terms.to_dict(orient="records"),
                 "heldout_r2": result.hint.heldout_r2,
+                "periodic": result.hint.periodic,
             }
             if result.hint is not None
             else None
@@ -105,19 +106,22 @@ def loop_section(
                 tables=(Table(e.parameters, f"{e.title}: parameters, units and intervals"),),
             )
         )
-    hint_tables = ()
+    hint_tables, hint_text = (), ""
     if result.hint is not None:
         write_csv(result.hint.terms, f"{prefix}_hint.csv")
         hint_tables = (
             Table(
                 result.hint.terms,
-                "Data-driven hint, not an identified effect: sparse regression (STLSQ) of the "
-                "residual on a generic library of standardised signals; it explains "
-                f"{100 * result.hint.heldout_r2:.0f} % of the held-out residual variance",
+                "Data-driven hint, not an identified effect: sparse regression (orthogonal "
+                "matching pursuit) of the residual on a generic library of standardised signals; "
+                f"it explains {100 * result.hint.heldout_r2:.0f} % of the held-out residual "
+                "variance",
             ),
         )
+        if result.hint.periodic:
+            hint_text = f"\n\n**Hint (not an identified effect):** the {result.hint.periodic}."
     text = (
-        f"**Verdict: {result.verdict}.** {result.message}\n\n"
+        f"**Verdict: {result.verdict}.** {result.message}{hint_text}\n\n"
         f"Base model: {result.base_title}, `{result.base_equation}`. Errors are **one-step** on "
         "the held-out rows. The held-out rows also confirm each effect before it is added (it "
         "must lower their RMSE by the configured margin), so the 'after' error is the error of a "

@@ -78,7 +78,7 @@ def finish(spec, data, start, current, effects, tests) -> LoopResult:
     if eta2 >= spec.structure_threshold:
         verdict = "unexplained structure"
         if spec.hint:
-            hint = sparse_hint(current.residual, data)
+            hint = sparse_hint(current.residual, data, signal)
         message = (
             f"Structure remains that no candidate effect explains: the residual depends on "
             f"{signal} (cross-fitted η² = {eta2:.3f} ≥ {spec.structure_threshold}); {white}. "
