@@ -16,11 +16,11 @@ def test_help_lists_the_commands(capsys):
         main(["--help"])
     assert exit_.value.code == 0
     out = capsys.readouterr().out
-    for command in ("simulate", "summary"):
+    for command in ("simulate", "summary", "run", "sweep", "blind", "study"):
         assert command in out
 
 
-@pytest.mark.parametrize("command", ["simulate", "summary"])
+@pytest.mark.parametrize("command", ["simulate", "summary", "blind", "study"])
 def test_each_command_explains_itself(command, capsys):
     with pytest.raises(SystemExit):
         main([command, "--help"])
@@ -91,3 +91,22 @@ def test_missing_log_file_names_the_key(tmp_path, capsys):
     )
     assert main(["summary", str(experiment), "--results", str(tmp_path / "r")]) == 2
     assert "key 'logs.0.path': file" in capsys.readouterr().err
+
+
+def test_blind_prints_the_pass_marks_and_exits_by_them(tmp_path, capsys):
+    blind = ROOT / "configs" / "blind"
+    suite = tmp_path / "tiny.yaml"
+    suite.write_text(
+        f"name: tiny\nseed: 3\ndataset: {blind / 'dataset.yaml'}\n"
+        f"experiment: {blind / 'experiment.yaml'}\nseeds: 1\nclean_seeds: 1\n"
+        "executor: {kind: process, workers: 1}\n"
+        "effects:\n  - {kind: pressure_lag, expect: pressure_lag, "
+        "strengths: {moderate: {delay: 0.03}}}\n",
+        encoding="utf-8",
+    )
+    code = main(["blind", str(suite), "--results", str(tmp_path / "results"), "--quiet"])
+    out = capsys.readouterr().out
+    assert "pressure_lag (moderate): pressure_lag named first" in out
+    assert "clean: an effect added" in out
+    assert code == 0, out  # both pass marks met: exit status 0
+    assert list((tmp_path / "results" / "tiny").glob("*/blind.md"))

@@ -1,5 +1,7 @@
 """The loop on synthetic cylinder data: the right effect, its parameter, and honest endings."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -93,6 +95,8 @@ def test_structure_outside_the_library_is_reported_as_unexplained(synthetic):
     assert result.diagnostics_after.strongest[0] == "x"
     assert "no candidate effect explains" in result.message
     assert result.hint is not None and len(result.hint.terms) > 0
+    period = float(re.search(r"period ([\d.]+) mm", result.hint.periodic).group(1))
+    assert abs(period - 4.0) < 0.2  # the ripple's wavelength, found without naming it
 
 
 def test_every_candidate_is_tabulated_with_its_evidence(synthetic):
