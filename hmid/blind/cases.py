@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import zlib
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +21,7 @@ class Case:
     seed: int
     params: dict[str, float]
     expect: str | None  # the candidate that should be named first; None: none should be claimed
+    compare: dict[str, str] = field(default_factory=dict)  # loop parameter -> simulator one
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -48,6 +49,7 @@ def plan_cases(suite: BlindSuite) -> list[Case]:
                         _seed(suite.seed, effect.kind, strength, i),
                         dict(params),
                         effect.expect,
+                        dict(effect.compare),
                     )
                 )
     return cases
@@ -80,6 +82,12 @@ def experiment_for(template: dict[str, Any], folder: Path, index: list[dict]) ->
     return {**template, "logs": logs}
 
 
+def _default(kind: str, name: str) -> float:
+    from hmid.simulate.effects import make_effect
+
+    return make_effect({"kind": kind}).params()[name]
+
+
 def outcome(case: Case, result) -> dict[str, Any]:
     """What the loop concluded on ``case`` (a :class:`hmid.loop.LoopResult`), and whether that
     was right."""
@@ -92,6 +100,17 @@ def outcome(case: Case, result) -> dict[str, Any]:
         "rmse before [N]": result.before.rmse,
         "rmse after [N]": result.after.rmse,
     }
+    if case.compare and first is not None and first == case.expect:
+        table = result.effects[0].parameters.set_index("parameter")
+        for loop_name, sim_name in case.compare.items():
+            estimate = table.loc[loop_name]
+            truth = case.params.get(sim_name, _default(case.effect, sim_name))
+            row |= {
+                "parameter": loop_name,
+                "truth": truth,
+                "estimate": float(estimate["value"]),
+                "covered": bool(estimate["lower"] <= truth <= estimate["upper"]),
+            }
     if case.effect == CLEAN:
         row["correct"] = not added
     elif case.expect is None:

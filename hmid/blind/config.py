@@ -26,6 +26,8 @@ class EffectCases(_Frozen):
     kind: str  # a simulator effect (hmid.simulate.effects)
     expect: str | None  # the loop candidate that explains it; None: outside the library
     strengths: Annotated[dict[str, dict[str, float]], Field(min_length=1)]
+    # {loop parameter: simulator parameter} whose estimate is compared with the truth
+    compare: dict[str, str] = {}
 
     @model_validator(mode="after")
     def _known(self) -> EffectCases:
@@ -36,9 +38,12 @@ class EffectCases(_Frozen):
             raise ValueError(f"expect {self.expect!r} is no candidate; known: {sorted(CANDIDATES)}")
         for params in self.strengths.values():
             try:
-                make_effect({"kind": self.kind, **params})
+                effect = make_effect({"kind": self.kind, **params})
             except ConfigError as err:
                 raise ValueError(str(err)) from None
+            unknown = set(self.compare.values()) - set(effect.params())
+            if unknown:
+                raise ValueError(f"compare: {sorted(unknown)} are no parameters of {self.kind!r}")
         return self
 
 

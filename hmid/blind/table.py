@@ -27,12 +27,26 @@ def suite_table(outcomes: pd.DataFrame) -> pd.DataFrame:
                 "correct": group["correct"].mean(),
                 "RMSE before [N]": group["rmse before [N]"].median(),
                 "RMSE after [N]": group["rmse after [N]"].median(),
+                **_recovery(group),
                 "first named (counts)": ", ".join(
                     f"{k}: {v}" for k, v in group["first"].fillna("none").value_counts().items()
                 ),
             }
         )
     return pd.DataFrame(rows)
+
+
+def _recovery(group: pd.DataFrame) -> dict:
+    """Median estimate / truth of the compared parameter and its interval's coverage."""
+    if "estimate" not in group or group["estimate"].isna().all():
+        return {"parameter": "", "estimate / truth": float("nan"), "95 % CI covers truth": ""}
+    known = group.dropna(subset=["estimate"])
+    ratio = (known["estimate"] / known["truth"]).median()
+    return {
+        "parameter": known["parameter"].iloc[0],
+        "estimate / truth": ratio,
+        "95 % CI covers truth": f"{int(known['covered'].sum())}/{len(known)}",
+    }
 
 
 def check_targets(outcomes: pd.DataFrame, suite: BlindSuite) -> pd.DataFrame:

@@ -24,6 +24,7 @@ from hmid.loop.structure import (
     descend,
     fit_structure,
     parameters,
+    refine,
     refit,
 )
 
@@ -41,22 +42,28 @@ def _screen(current: StructureFit, candidate: Candidate, data, spec, cache):
     still holds the effect, whose persistence would inflate tau_int and hide it."""
     base = current.structure
     sign = base.base.friction_sign(current.params)
+    # a parameter missing from a fit is a column the base already has (merged): not constrained
     for _ in range(3):
         fits = [fit_structure(base.plus(Term(candidate, g)), data, cache) for g in candidate.grid]
         sse = np.array([f.fit.sse for f in fits])
-        signs = np.array([all(sign * f.params[k] > 0 for k in candidate.positive) for f in fits])
+        signs = np.array(
+            [all(sign * f.params.get(k, 1.0) > 0 for k in candidate.positive) for f in fits]
+        )
         best = int(np.argmin(np.where(signs, sse, np.inf))) if signs.any() else int(np.argmin(sse))
         joint = descend(base.plus(Term(candidate, candidate.grid[best])), data, cache)
         if joint.structure.base_value == base.base_value:
             break
         base = replace(base, base_value=joint.structure.base_value)
+    joint = refine(joint, data, cache)
     q = joint.columns.width - current.columns.width + (candidate.hyper is not None)
     p1 = joint.columns.width + _hypers(joint.structure)
     n_eff = current.fit.n / residual_tau_int(joint.residual, data)
     test = NestedTest.of(current.fit.sse, joint.fit.sse, q, p1, current.fit.n, n_eff)
     grid = np.array([np.nan if g is None else g for g in candidate.grid], dtype=float)
     interval = profile_interval(grid, sse, n_eff, spec.confidence) if candidate.hyper else None
-    identified = bool(signs[best]) and all(sign * joint.params[k] > 0 for k in candidate.positive)
+    identified = bool(signs[best]) and all(
+        sign * joint.params.get(k, 1.0) > 0 for k in candidate.positive
+    )
     return candidate.grid[best], test, interval, identified, n_eff, joint.fit.sse
 
 
@@ -108,8 +115,10 @@ def _run_loop(data: LoopData, spec: LoopSpec) -> LoopResult:
         if added is None:
             break
         candidate, trial, evidence, interval = added
-        table = parameters(trial, data, residual_tau_int(trial.residual, data), spec.confidence)
-        own = table[~table["parameter"].isin(current.columns.names)]
+        tau_int = residual_tau_int(trial.residual, data)
+        table = parameters(trial, data, tau_int, spec.confidence, cache)
+        base_hyper = [spec.base.hyper[0]] if spec.base.hyper else []
+        own = table[~table["parameter"].isin([*current.columns.names, *base_hyper])]
         sign = trial.structure.base.friction_sign(trial.params)
         if candidate.friction and sign < 0:  # shown as friction, whatever the log's convention
             own = own.assign(value=-own["value"], lower=-own["upper"], upper=-own["lower"])
@@ -120,7 +129,7 @@ def _run_loop(data: LoopData, spec: LoopSpec) -> LoopResult:
         strongest = diagnose(current.residual, data, max_lag_s=spec.max_lag_s).strongest[1]
         if strongest < spec.structure_threshold:
             break
-    return finish(spec, data, start, current, effects, pd.DataFrame(rows))
+    return finish(spec, data, start, current, effects, pd.DataFrame(rows), cache)
 
 
 def _row(round_no, current: StructureFit, screen, p_adj: float, n_common: float, spec) -> dict:

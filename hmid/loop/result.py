@@ -66,7 +66,7 @@ def make_effect(candidate, own, value, interval, evidence, held_rmse) -> Effect:
     )
 
 
-def finish(spec, data, start, current, effects, tests) -> LoopResult:
+def finish(spec, data, start, current, effects, tests, cache) -> LoopResult:
     before = diagnose(start.residual, data, max_lag_s=spec.max_lag_s, stride_s=spec.stride_s)
     after = diagnose(current.residual, data, max_lag_s=spec.max_lag_s, stride_s=spec.stride_s)
     signal, eta2 = after.strongest
@@ -98,7 +98,8 @@ def finish(spec, data, start, current, effects, tests) -> LoopResult:
                 else "."
             )
         )
-    base_table = parameters(start, data, residual_tau_int(start.residual, data), spec.confidence)
+    tau_int = residual_tau_int(start.residual, data)
+    base_table = parameters(start, data, tau_int, spec.confidence, cache)
     return LoopResult(
         base_title=spec.base.title,
         base_equation=spec.base.equation(),

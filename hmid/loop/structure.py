@@ -10,6 +10,7 @@ from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
+import pandas as pd
 
 from hmid.loop.bases import Base
 from hmid.loop.candidates import Candidate
@@ -99,7 +100,10 @@ def descend(structure: Structure, data: LoopData, cache: dict) -> StructureFit:
     best = fit_structure(structure, data, cache)
     if len(grid) == 1:
         return best
-    start = grid.index(structure.base_value)
+    start = int(np.argmin(np.abs(np.log(np.asarray(grid) / structure.base_value))))
+    if grid[start] != structure.base_value:
+        structure = replace(structure, base_value=grid[start])
+        best = fit_structure(structure, data, cache)
     for step in (-1, 1):
         j = start + step
         while 0 <= j < len(grid):
@@ -112,19 +116,65 @@ def descend(structure: Structure, data: LoopData, cache: dict) -> StructureFit:
     return best
 
 
+def refine(best: StructureFit, data: LoopData, cache: dict) -> StructureFit:
+    """The base's hyperparameter between the grid neighbours of the grid optimum (bounded scalar
+    search in its logarithm): estimates that trade off against it (a viscous b against the
+    SLS relaxation time) otherwise inherit the grid's resolution as a bias."""
+    from scipy.optimize import minimize_scalar
+
+    grid = best.structure.base.grid
+    if len(grid) < 2:
+        return best
+    i = int(np.argmin(np.abs(np.log(np.asarray(grid) / best.structure.base_value))))
+    low, high = np.log(grid[max(i - 1, 0)]), np.log(grid[min(i + 1, len(grid) - 1)])
+
+    def sse(log_value: float) -> float:
+        s = replace(best.structure, base_value=float(np.exp(log_value)))
+        return fit_structure(s, data, cache).fit.sse
+
+    found = minimize_scalar(sse, bounds=(low, high), method="bounded", options={"xatol": 1e-3})
+    trial = fit_structure(replace(best.structure, base_value=float(np.exp(found.x))), data, cache)
+    return trial if trial.fit.sse < best.fit.sse else best
+
+
 def refit(structure: Structure, data: LoopData, cache: dict, *, full: bool = False):
     """Re-profile the base's hyperparameter with the effects in (the whole grid, or a walk from
-    the current value), then update the elastic force the drift terms use."""
+    the current value, then a continuous refinement), then update the elastic force the drift
+    terms use."""
     if full:
         grid = structure.base.grid
         sse = [fit_structure(replace(structure, base_value=v), data, cache).fit.sse for v in grid]
         structure = replace(structure, base_value=grid[int(np.argmin(sse))])
-    best = descend(structure, data, cache)
+    best = refine(descend(structure, data, cache), data, cache)
     s = best.structure
     elastic = s.base.elastic(s.data_for(data), s.base_value, best.params, cache)
     return fit_structure(replace(s, elastic=elastic), data, cache)
 
 
-def parameters(fitted: StructureFit, data: LoopData, tau_int: float, confidence: float):
-    """The fitted parameters with intervals (standard errors inflated by tau_int)."""
-    return inference(fitted.columns, data["y"], data.train, tau_int, confidence)
+def parameters(
+    fitted: StructureFit, data: LoopData, tau_int: float, confidence: float, cache: dict
+) -> pd.DataFrame:
+    """The fitted parameters with intervals (standard errors inflated by tau_int). The base's
+    profiled hyperparameter enters the covariance through its sensitivity column (Gauss-Newton),
+    so parameters that trade off against it get honest intervals, and it gets one itself."""
+    s = fitted.structure
+    extra = s.base.sensitivity(s.data_for(data), s.base_value, fitted.params, cache)
+    columns = fitted.columns
+    if extra is not None:
+        name, unit = s.base.hyper
+        columns = columns + Columns((f"ln {name}",), ("1",), extra[:, None])
+    table = inference(columns, data["y"], data.train, tau_int, confidence)
+    if extra is None:
+        return table
+    # the sensitivity column's coefficient is a Gauss-Newton step (~0 at the optimum): keep the
+    # fitted values, take the half-widths from the joint covariance
+    half = (table["upper"] - table["lower"]).to_numpy() / 2
+    value = np.append(fitted.fit.coef, np.log(s.base_value))
+    table["value"], table["lower"], table["upper"] = value, value - half, value + half
+    last = table.index[-1]
+    table.loc[last, ["parameter", "unit"]] = [name, unit]
+    table.loc[last, ["value", "lower", "upper"]] = np.exp(
+        table.loc[last, ["value", "lower", "upper"]].to_numpy(float)
+    )
+    table.loc[last, "std. error"] *= s.base_value  # delta method, for reference
+    return table

@@ -71,8 +71,11 @@ class Hysteresis(Candidate):
     physics: ClassVar[str] = (
         "a force offset that changes sign with the direction of motion, -h sign(v): a "
         "rate-independent hysteresis band of the latex and sheath between loading and "
-        "unloading, or a Coulomb level other than the free-fall estimate"
+        "unloading, or friction above the free-fall estimate; h > 0 (a band dissipates: a "
+        "level *below* the free-fall estimate points at friction that grows with speed, "
+        "since free falls are fast)"
     )
+    positive: ClassVar[tuple[str, ...]] = ("h",)
 
     def columns(self, data, value, elastic):
         return Columns.of(len(data), h=(-direction(data), "N"))

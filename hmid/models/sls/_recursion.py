@@ -54,12 +54,13 @@ def coefficients(dt: jax.Array, v: jax.Array, tau: jax.Array) -> tuple[jax.Array
     return jnp.where(dt > 0, 1.0 + decay, 0.0), -tau * decay * v
 
 
-def _sequential(a: jax.Array, b: jax.Array) -> jax.Array:
+def _sequential(a: jax.Array, b: jax.Array, q0: jax.Array | None = None) -> jax.Array:
     def step(q, ab):
         q = ab[0] * q + ab[1]
         return q, q
 
-    return jax.lax.scan(step, jnp.zeros(a.shape[1:], a.dtype), (a, b))[1]
+    q0 = jnp.zeros(a.shape[1:], a.dtype) if q0 is None else q0
+    return jax.lax.scan(step, q0, (a, b))[1]
 
 
 def _combine(left, right):
@@ -68,9 +69,11 @@ def _combine(left, right):
     return a1 * a2, a2 * b1 + b2
 
 
-def scan_sequential(dt: jax.Array, v: jax.Array, tau: jax.Array) -> jax.Array:
-    """g_tau by one ``lax.scan`` over time."""
-    return _sequential(*coefficients(dt, v, tau))
+def scan_sequential(
+    dt: jax.Array, v: jax.Array, tau: jax.Array, q0: jax.Array | None = None
+) -> jax.Array:
+    """g_tau by one ``lax.scan`` over time, from the state ``q0`` (default 0) before ``dt[0]``."""
+    return _sequential(*coefficients(dt, v, tau), q0)
 
 
 def scan_associative(dt: jax.Array, v: jax.Array, tau: jax.Array) -> jax.Array:
