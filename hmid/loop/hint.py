@@ -74,7 +74,7 @@ def sparse_hint(residual: np.ndarray, data: LoopData, signal: str | None = None)
 
 UNITS = {"x": ("mm", 1e3), "v": ("mm/s", 1e3), "P": ("kPa", 1e-3), "dP/dt": ("kPa/s", 1e-3),
          "t": ("s", 1.0)}  # fmt: skip
-MIN_SHARE = 0.1  # a period is reported when one sinusoid explains this share of the residual
+MIN_SHARE = 0.25  # a period is reported when one sinusoid explains this share of the residual
 
 
 def periodicity(residual: np.ndarray, data: LoopData, signal: str, points: int = 6000) -> str:
