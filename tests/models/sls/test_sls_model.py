@@ -244,3 +244,22 @@ def test_data_validation():
     data = sls_data([unused_nan.astype({"use": bool})])
     assert float(data.F[2]) == 0.0 and data.n == 20
     assert np.asarray(data.start).tolist() == [True] + [False] * 19
+
+
+@pytest.mark.parametrize("chunk", [7, 37])
+@pytest.mark.parametrize("noise", ["iid", "ar1"])
+def test_chunked_likelihood_equals_the_whole_array_scan(noise, chunk, monkeypatch):
+    """Chunks that split a log mid-way (and a log boundary inside a chunk) carry the arm state
+    and the AR(1) residual across: the same numbers as an unchunked scan."""
+    from hmid.models.sls import likelihood
+
+    model, data, theta = _small_problem(noise)
+    batch = np.stack([theta, theta + 0.01])
+    with jax.enable_x64(True):  # the pure functions, not the jitted ones: CHUNK is read each call
+        whole = likelihood.log_likelihood(model.space, batch, data, "associative")
+        whole_force = likelihood.force(model.space, batch, data, "associative")
+        monkeypatch.setattr(likelihood, "CHUNK", chunk)
+        chunked = likelihood.log_likelihood(model.space, batch, data, "sequential")
+        chunked_force = likelihood.force(model.space, batch, data, "sequential")
+    np.testing.assert_allclose(np.asarray(chunked), np.asarray(whole), rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(chunked_force), np.asarray(whole_force), rtol=1e-12)
