@@ -31,10 +31,18 @@ FOLD_BLOCK_S = 0.5  # folds interleave blocks of this length
 
 
 def signals(data: LoopData) -> dict[str, np.ndarray]:
-    """The signals a residual is scanned against (dP/dt per segment)."""
+    """The signals a residual is scanned against. dP/dt is a Savitzky-Golay derivative over
+    ~50 ms per segment: a 10-bit pressure differenced at 1 kHz is mostly quantisation steps."""
+    from scipy.signal import savgol_filter
+
     P, t, dP = data["P"], data["t"], np.empty(len(data))
+    window = lag_count(data, 0.05, 5) | 1
     for rows in data.segments():
-        dP[rows] = np.gradient(P[rows], t[rows]) if len(rows) > 1 else 0.0
+        dt = float(np.median(np.diff(t[rows]))) if len(rows) > 1 else 1.0
+        if len(rows) > window:
+            dP[rows] = savgol_filter(P[rows], window, 2, deriv=1, delta=dt)
+        else:
+            dP[rows] = np.gradient(P[rows], t[rows]) if len(rows) > 1 else 0.0
     return {"x": data["x"], "v": data["v"], "P": P, "dP/dt": dP, "t": t}
 
 

@@ -22,7 +22,6 @@ from hmid.loop.structure import (
     StructureFit,
     Term,
     descend,
-    fit_structure,
     parameters,
     refine,
     refit,
@@ -36,24 +35,24 @@ def _hypers(structure: Structure) -> int:
 
 
 def _screen(current: StructureFit, candidate: Candidate, data, spec, cache):
-    """Profile the candidate's parameter and the base's jointly (coordinate-wise: the base
-    absorbed part of the effect, so its hyperparameter moves once the effect is in), and test
-    it on the effective sample size of the *augmented* model's residual: the current residual
-    still holds the effect, whose persistence would inflate tau_int and hide it."""
+    """Profile the candidate's parameter with the base's re-profiled at every grid value (the
+    base absorbed part of the effect, so its hyperparameter moves once the effect is in; each
+    walk starts where the previous grid value's ended, following the ridge), and test it on the
+    effective sample size of the *augmented* model's residual: the current residual still holds
+    the effect, whose persistence would inflate tau_int and hide it."""
     base = current.structure
     sign = base.base.friction_sign(current.params)
+    fits = []
+    for g in candidate.grid:
+        fits.append(descend(base.plus(Term(candidate, g)), data, cache))
+        base = replace(base, base_value=fits[-1].structure.base_value)
+    sse = np.array([f.fit.sse for f in fits])
     # a parameter missing from a fit is a column the base already has (merged): not constrained
-    for _ in range(3):
-        fits = [fit_structure(base.plus(Term(candidate, g)), data, cache) for g in candidate.grid]
-        sse = np.array([f.fit.sse for f in fits])
-        signs = np.array(
-            [all(sign * f.params.get(k, 1.0) > 0 for k in candidate.positive) for f in fits]
-        )
-        best = int(np.argmin(np.where(signs, sse, np.inf))) if signs.any() else int(np.argmin(sse))
-        joint = descend(base.plus(Term(candidate, candidate.grid[best])), data, cache)
-        if joint.structure.base_value == base.base_value:
-            break
-        base = replace(base, base_value=joint.structure.base_value)
+    signs = np.array(
+        [all(sign * f.params.get(k, 1.0) > 0 for k in candidate.positive) for f in fits]
+    )
+    best = int(np.argmin(np.where(signs, sse, np.inf))) if signs.any() else int(np.argmin(sse))
+    joint = fits[best]
     joint = refine(joint, data, cache)
     q = joint.columns.width - current.columns.width + (candidate.hyper is not None)
     p1 = joint.columns.width + _hypers(joint.structure)
