@@ -6,7 +6,7 @@ profiled parameters are chosen on fixed grids and fits are least squares.
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -34,7 +34,24 @@ def _hypers(structure: Structure) -> int:
     )
 
 
-def _screen(current: StructureFit, candidate: Candidate, data, spec, cache):
+@dataclass(frozen=True)
+class Screen:
+    """One candidate tested against the current model in one round."""
+
+    candidate: Candidate
+    value: float | None  # its profiled parameter (None if it has none)
+    test: NestedTest  # on the augmented residual's n_eff
+    interval: tuple[float, float] | None  # profile-likelihood interval of ``value``
+    physical: bool  # its sign-constrained parameters have their physical sign
+    n_eff: float
+    sse: float  # training SSE of the augmented model
+
+    @property
+    def identified(self) -> bool:
+        return self.physical and self.candidate.identified(self.value)
+
+
+def _screen(current: StructureFit, candidate: Candidate, data, spec, cache) -> Screen:
     """Profile the candidate's parameter with the base's re-profiled at every grid value (the
     base absorbed part of the effect, so its hyperparameter moves once the effect is in; each
     walk starts where the previous grid value's ended, following the ridge), and test it on the
@@ -60,10 +77,10 @@ def _screen(current: StructureFit, candidate: Candidate, data, spec, cache):
     test = NestedTest.of(current.fit.sse, joint.fit.sse, q, p1, current.fit.n, n_eff)
     grid = np.array([np.nan if g is None else g for g in candidate.grid], dtype=float)
     interval = profile_interval(grid, sse, n_eff, spec.confidence) if candidate.hyper else None
-    identified = bool(signs[best]) and all(
+    physical = bool(signs[best]) and all(
         sign * joint.params.get(k, 1.0) > 0 for k in candidate.positive
     )
-    return candidate.grid[best], test, interval, identified, n_eff, joint.fit.sse
+    return Screen(candidate, candidate.grid[best], test, interval, physical, n_eff, joint.fit.sse)
 
 
 def run_loop(data: LoopData, spec: LoopSpec) -> LoopResult:
@@ -85,8 +102,8 @@ def _run_loop(data: LoopData, spec: LoopSpec) -> LoopResult:
     for round_no in range(1, spec.max_effects + 1):
         if not remaining:
             break
-        screened = [(c, *_screen(current, c, data, spec, cache)) for c in remaining]
-        p_holm = _holm([row[2].p_value for row in screened])
+        screened = [_screen(current, c, data, spec, cache) for c in remaining]
+        p_holm = _holm([screen.test.p_value for screen in screened])
         held_rmse = current.held_out(data).rmse
         # rank on one sample size for all: each candidate's own n_eff (its residual's) decides
         # significance, but would favour whichever whitens its residual most, not fits best
@@ -101,14 +118,14 @@ def _run_loop(data: LoopData, spec: LoopSpec) -> LoopResult:
         )
         added = None
         for i in order:
-            candidate, value = screened[i][0], screened[i][1]
-            trial = refit(current.structure.plus(Term(candidate, value)), data, cache)
+            candidate = screened[i].candidate
+            trial = refit(current.structure.plus(Term(candidate, screened[i].value)), data, cache)
             rmse = trial.held_out(data).rmse
             change = rmse / held_rmse - 1.0
             round_rows[i] |= {"held-out RMSE [N]": rmse, "held-out change": change}
             if change <= -spec.margin:
                 round_rows[i]["added"] = True
-                added = (candidate, trial, round_rows[i], screened[i][3])
+                added = (candidate, trial, round_rows[i], screened[i].interval)
                 break
         rows.extend(round_rows)
         if added is None:
@@ -131,24 +148,24 @@ def _run_loop(data: LoopData, spec: LoopSpec) -> LoopResult:
     return finish(spec, data, start, current, effects, pd.DataFrame(rows), cache)
 
 
-def _row(round_no, current: StructureFit, screen, p_adj: float, n_common: float, spec) -> dict:
-    candidate, value, test, interval, signs, n_eff, sse = screen
-    identified = signs and candidate.identified(value)
-    rank = NestedTest.of(current.fit.sse, sse, test.q, 0, current.fit.n, n_common)
+def _row(round_no, current: StructureFit, screen: Screen, p_adj: float, n_common, spec) -> dict:
+    test = screen.test
+    rank = NestedTest.of(current.fit.sse, screen.sse, test.q, 0, current.fit.n, n_common)
+    passes = p_adj < spec.alpha and test.delta_bic < 0 and screen.identified
     return {
         "round": round_no,
-        "candidate": candidate.name,
-        "profiled": _profiled(candidate, value, interval),
+        "candidate": screen.candidate.name,
+        "profiled": _profiled(screen.candidate, screen.value, screen.interval),
         # the residual's correlation with the candidate's (nonlinear) features, jointly
-        "partial R": float(np.sqrt(max(0.0, 1.0 - sse / current.fit.sse))),
+        "partial R": float(np.sqrt(max(0.0, 1.0 - screen.sse / current.fit.sse))),
         "F": test.f,
-        "n_eff": n_eff,
+        "n_eff": screen.n_eff,
         "p": test.p_value,
         "p (Holm)": p_adj,
         "ΔBIC": test.delta_bic,
         "ΔBIC (rank)": rank.delta_bic,
-        "identified": identified,
-        "passes training": bool(p_adj < spec.alpha and test.delta_bic < 0 and identified),
+        "identified": screen.identified,
+        "passes training": bool(passes),
         "held-out RMSE [N]": np.nan,
         "held-out change": np.nan,
         "added": False,
