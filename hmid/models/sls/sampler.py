@@ -33,20 +33,20 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Literal
 
 import emcee
 import numpy as np
-import pandas as pd
 from tqdm.auto import tqdm
 
 from hmid.errors import ConfigError
 from hmid.models.sls._chainfile import _state_from_json, _Store
 from hmid.models.sls._errors import SamplerError
 from hmid.models.sls._moves import SnookerMove
+from hmid.models.sls._sampler_result import SamplerResult
 
 __all__ = [
     "STOP_REASONS",
@@ -118,102 +118,6 @@ class SamplerConfig:
         if self.moves == "stretch":
             return [(emcee.moves.StretchMove(), 1.0)]
         return [(emcee.moves.DEMove(), 0.8), (SnookerMove(), 0.2)]
-
-
-@dataclass(frozen=True, eq=False)
-class SamplerResult:
-    """A finished (or budget-stopped) run of :func:`run_sampler`.
-
-    ``chain`` (draws, D) and ``log_prob`` (draws,) are the flat posterior draws after
-    ``burn_in`` steps and thinning by ``thin``; ``walkers`` (n_steps, n_walkers, D) and
-    ``walkers_log_prob`` the whole chain for trace plots. ``tau`` and ``ess`` are per parameter;
-    ``tau_history`` rows are ``(iteration, tau_1..tau_D)`` at each convergence check.
-    ``wall_s`` is this call's wall time; ``stop_reason`` one of :data:`STOP_REASONS`.
-    """
-
-    names: tuple[str, ...]
-    chain: np.ndarray
-    log_prob: np.ndarray
-    acceptance: np.ndarray
-    tau: np.ndarray
-    ess: np.ndarray
-    n_steps: int
-    burn_in: int
-    thin: int
-    stop_reason: str
-    wall_s: float
-    backend_path: Path | None
-    walkers: np.ndarray
-    walkers_log_prob: np.ndarray
-    tau_history: np.ndarray
-    n_nan: int
-
-    @property
-    def n_walkers(self) -> int:
-        return self.walkers.shape[1]
-
-    @property
-    def acceptance_mean(self) -> float:
-        return float(np.mean(self.acceptance))
-
-    @property
-    def converged(self) -> bool:
-        return self.stop_reason == "converged"
-
-    def metrics(self) -> dict[str, Any]:
-        """Scalar diagnostics for a run manifest."""
-        return {
-            "stop_reason": self.stop_reason,
-            "n_steps": self.n_steps,
-            "n_walkers": self.n_walkers,
-            "burn_in": self.burn_in,
-            "thin": self.thin,
-            "n_draws": len(self.chain),
-            "acceptance_mean": self.acceptance_mean,
-            "tau_max": float(np.max(self.tau)),
-            "ess_min": float(np.min(self.ess)),
-            "wall_s": self.wall_s,
-            "n_nan": self.n_nan,
-        }
-
-    def summary(
-        self,
-        units: Mapping[str, str] | None = None,
-        confidence: float = 0.90,
-        transform: Callable[[np.ndarray], Mapping[str, np.ndarray]] | None = None,
-    ) -> pd.DataFrame:
-        """Median, equal-tailed credible interval (``lower``, ``upper``), mean, sd and unit.
-
-        ``transform`` maps the draws (draws, D) to physical parameters, name -> (draws,), e.g.
-        ``lambda th: {"k": np.exp(th[:, 0]), ...}``; ``units`` must then name those parameters.
-        """
-        if not 0 < confidence < 1:
-            raise ConfigError(f"summary: confidence must lie in (0, 1), got {confidence!r}")
-        if transform is None:
-            values = {name: self.chain[:, i] for i, name in enumerate(self.names)}
-        else:
-            values = {name: np.asarray(v, float) for name, v in transform(self.chain).items()}
-        missing = [name for name in values if units is not None and name not in units]
-        if missing:
-            raise ConfigError(f"summary: units has no entry for {', '.join(missing)}")
-        tail = (1 - confidence) / 2
-        rows = {
-            name: {
-                "median": float(np.median(v)),
-                "lower": float(np.quantile(v, tail)),
-                "upper": float(np.quantile(v, 1 - tail)),
-                "mean": float(np.mean(v)),
-                "sd": float(np.std(v, ddof=1)),
-                "unit": "" if units is None else units[name],
-            }
-            for name, v in values.items()
-        }
-        return pd.DataFrame.from_dict(rows, orient="index").rename_axis("parameter")
-
-    def draws(self, n: int, rng: np.random.Generator) -> np.ndarray:
-        """``n`` rows of ``chain`` (without replacement while there are enough) for predictions."""
-        index = rng.choice(len(self.chain), size=n, replace=n > len(self.chain))
-        return self.chain[index]
 
 
 def run_sampler(
