@@ -92,8 +92,8 @@ def finish(spec, data, start, current, effects, tests, cache) -> LoopResult:
             f"(largest: {signal}, η² = {eta2:.3f}); {white}"
             + (
                 " — the residual is not white, but its correlation is not attributable to "
-                "x, v, P, dP/dt or t (sensor resolution and filtering correlate neighbouring "
-                "samples)."
+                "x, v, P, dP/dt or t (possible causes: sensor resolution and the smoothing "
+                "filters, which correlate neighbouring samples)."
                 if after.ljung_box_p < 0.01
                 else "."
             )
