@@ -151,30 +151,57 @@ def refit(structure: Structure, data: LoopData, cache: dict, *, full: bool = Fal
     return fit_structure(replace(s, elastic=elastic), data, cache)
 
 
+def _effect_sensitivity(fitted: StructureFit, index: int, data: LoopData, cache: dict):
+    """d(prediction)/d(ln value) of effect ``index``'s profiled parameter, coefficients held
+    fixed (central difference; None if it has none, or sits at 0 where ln is undefined)."""
+    s, term = fitted.structure, fitted.structure.effects[index]
+    if term.candidate.hyper is None or not term.value:
+        return None
+    h, predictions = 1e-3, []
+    for factor in (np.exp(h), np.exp(-h)):
+        effects = list(s.effects)
+        effects[index] = Term(term.candidate, term.value * factor)
+        columns = replace(s, effects=tuple(effects)).columns(data, cache)
+        if columns.names != fitted.columns.names:
+            return None
+        predictions.append(columns.values @ fitted.fit.coef)
+    return (predictions[0] - predictions[1]) / (2 * h)
+
+
 def parameters(
     fitted: StructureFit, data: LoopData, tau_int: float, confidence: float, cache: dict
 ) -> pd.DataFrame:
-    """The fitted parameters with intervals (standard errors inflated by tau_int). The base's
-    profiled hyperparameter enters the covariance through its sensitivity column (Gauss-Newton),
-    so parameters that trade off against it get honest intervals, and it gets one itself."""
+    """The fitted parameters with intervals (standard errors inflated by tau_int). Profiled
+    parameters (the base's, and each added effect's) enter the covariance through their
+    sensitivity columns (Gauss-Newton), so the linear parameters that trade off against them get
+    honest intervals. The base's gets a row of its own; an effect's keeps its profile-likelihood
+    interval (added with the effect)."""
     s = fitted.structure
-    extra = s.base.sensitivity(s.data_for(data), s.base_value, fitted.params, cache)
+    base_extra = s.base.sensitivity(s.data_for(data), s.base_value, fitted.params, cache)
+    effect_extra = [_effect_sensitivity(fitted, i, data, cache) for i in range(len(s.effects))]
+    extras = [e for e in [base_extra, *effect_extra] if e is not None]
     columns = fitted.columns
-    if extra is not None:
-        name, unit = s.base.hyper
-        columns = columns + Columns((f"ln {name}",), ("1",), extra[:, None])
+    if extras:
+        names = tuple(f"sensitivity {i}" for i in range(len(extras)))
+        columns = columns + Columns(names, ("1",) * len(extras), np.column_stack(extras))
     table = inference(columns, data["y"], data.train, tau_int, confidence)
-    if extra is None:
+    if not extras:
         return table
-    # the sensitivity column's coefficient is a Gauss-Newton step (~0 at the optimum): keep the
+    # a sensitivity column's coefficient is a Gauss-Newton step (~0 at the optimum): keep the
     # fitted values, take the half-widths from the joint covariance
+    width = fitted.columns.width
     half = (table["upper"] - table["lower"]).to_numpy() / 2
-    value = np.append(fitted.fit.coef, np.log(s.base_value))
+    value = table["value"].to_numpy().copy()
+    value[:width] = fitted.fit.coef
     table["value"], table["lower"], table["upper"] = value, value - half, value + half
-    last = table.index[-1]
-    table.loc[last, ["parameter", "unit"]] = [name, unit]
-    table.loc[last, ["value", "lower", "upper"]] = np.exp(
-        table.loc[last, ["value", "lower", "upper"]].to_numpy(float)
+    if base_extra is None:
+        return table.iloc[:width].reset_index(drop=True)
+    row = table.index[width]
+    name, unit = s.base.hyper
+    log_value = np.log(s.base_value)
+    table.loc[row, ["parameter", "unit"]] = [name, unit]
+    table.loc[row, "std. error"] *= s.base_value  # delta method, for reference
+    table.loc[row, ["value", "lower", "upper"]] = np.exp(
+        [log_value, log_value - half[width], log_value + half[width]]
     )
-    table.loc[last, "std. error"] *= s.base_value  # delta method, for reference
-    return table
+    return table.iloc[: width + 1].reset_index(drop=True)
