@@ -52,7 +52,7 @@ def run(study_path: Path, *, results: Path = Path("results")) -> tuple[Path, dic
         for _, path in seal_files:
             manifest.add_input(path)
         with manifest.stage(f"loop {seal}"):
-            data, pieces = prepare(study, seal, seal_files)
+            data, pieces = prepare(study, seal_files)
             result = run_loop(data, study.loop)
         prefix = f"{seal}_loop".replace(" ", "_")
         section, seal_metrics = loop_section(

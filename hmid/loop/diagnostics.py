@@ -23,7 +23,6 @@ import pandas as pd
 from hmid.loop.data import LoopData
 from hmid.loop.statistics import autocorrelation, integrated_time, masked_series
 
-SIGNALS = ("x", "v", "P", "dP/dt", "t")
 N_BINS = 24
 N_BINS_TIME = 6  # coarser than a fold block, so every time bin is seen by the other folds
 FOLDS = 4

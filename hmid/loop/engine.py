@@ -14,7 +14,7 @@ import pandas as pd
 from hmid.loop.candidates import Candidate, make_candidates
 from hmid.loop.config import LoopSpec
 from hmid.loop.data import LoopData
-from hmid.loop.diagnostics import diagnose, residual_tau_int
+from hmid.loop.diagnostics import residual_tau_int, structure_scan
 from hmid.loop.result import LoopResult, finish, make_effect
 from hmid.loop.statistics import NestedTest, profile_interval
 from hmid.loop.structure import (
@@ -74,7 +74,7 @@ def _screen(current: StructureFit, candidate: Candidate, data, spec, cache) -> S
     q = joint.columns.width - current.columns.width + (candidate.hyper is not None)
     p1 = joint.columns.width + _hypers(joint.structure)
     n_eff = current.fit.n / residual_tau_int(joint.residual, data)
-    test = NestedTest.of(current.fit.sse, joint.fit.sse, q, p1, current.fit.n, n_eff)
+    test = NestedTest.of(current.fit.sse, joint.fit.sse, q, p1, n_eff)
     grid = np.array([np.nan if g is None else g for g in candidate.grid], dtype=float)
     interval = profile_interval(grid, sse, n_eff, spec.confidence) if candidate.hyper else None
     physical = bool(signs[best]) and all(
@@ -142,7 +142,8 @@ def _run_loop(data: LoopData, spec: LoopSpec) -> LoopResult:
         effects.append(make_effect(candidate, own, value, interval, evidence, held_rmse))
         remaining.remove(candidate)
         current = trial
-        strongest = diagnose(current.residual, data, max_lag_s=spec.max_lag_s).strongest[1]
+        # only the structure scan decides whether to go on; the full diagnostics come at the end
+        strongest = structure_scan(current.residual, data.train, data)["eta2"].max()
         if strongest < spec.structure_threshold:
             break
     return finish(spec, data, start, current, effects, pd.DataFrame(rows), cache)
@@ -150,7 +151,7 @@ def _run_loop(data: LoopData, spec: LoopSpec) -> LoopResult:
 
 def _row(round_no, current: StructureFit, screen: Screen, p_adj: float, n_common, spec) -> dict:
     test = screen.test
-    rank = NestedTest.of(current.fit.sse, screen.sse, test.q, 0, current.fit.n, n_common)
+    rank = NestedTest.of(current.fit.sse, screen.sse, test.q, 0, n_common)
     passes = p_adj < spec.alpha and test.delta_bic < 0 and screen.identified
     return {
         "round": round_no,

@@ -65,7 +65,7 @@ class NestedTest:
     q: int
 
     @classmethod
-    def of(cls, sse0: float, sse1: float, q: int, p1: int, n: int, n_eff: float) -> NestedTest:
+    def of(cls, sse0: float, sse1: float, q: int, p1: int, n_eff: float) -> NestedTest:
         if q == 0:  # the candidate adds nothing the model lacks (e.g. a level it already has)
             return cls(0.0, 1.0, 0.0, 0)
         df = max(n_eff - p1, 1.0)

@@ -86,7 +86,7 @@ def load_study(path: str | Path) -> PneumaticStudy:
     return study
 
 
-def prepare(study: PneumaticStudy, seal: str, files: list[tuple[float, Path]]):
+def prepare(study: PneumaticStudy, files: list[tuple[float, Path]]):
     """LoopData of one seal: logs split at gaps, denoised per piece, held-out pressures marked;
     also a table of the pieces (so nothing is left out silently)."""
     import pandas as pd

@@ -70,12 +70,12 @@ def test_nested_f_test_is_calibrated_under_the_null():
         sse0 = np.sum((y - X @ np.linalg.lstsq(X, y, rcond=None)[0]) ** 2)
         X1 = np.hstack([X, extra])
         sse1 = np.sum((y - X1 @ np.linalg.lstsq(X1, y, rcond=None)[0]) ** 2)
-        rejections += NestedTest.of(sse0, sse1, 1, 3, n, n).p_value < 0.05
+        rejections += NestedTest.of(sse0, sse1, 1, 3, n).p_value < 0.05
     assert 0.03 < rejections / 400 < 0.075
 
 
 def test_a_candidate_that_adds_nothing_is_never_significant():
-    test = NestedTest.of(10.0, 10.0, 0, 3, 100, 100)
+    test = NestedTest.of(10.0, 10.0, 0, 3, 100)
     assert (test.f, test.p_value, test.q) == (0.0, 1.0, 0)
 
 
