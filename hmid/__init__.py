@@ -5,7 +5,7 @@ work: heavy dependencies (JAX, matplotlib) are imported by the functions that us
 """
 
 from hmid.errors import ConfigError, HmidError, HmidWarning, LogError, SignalError, UnitError
-from hmid.io.log import CANONICAL_UNITS, Log, RigConstants
+from hmid.io.log import CANONICAL_UNITS, Log
 
 __version__ = "0.1.0"
 
@@ -16,7 +16,6 @@ __all__ = [
     "HmidWarning",
     "Log",
     "LogError",
-    "RigConstants",
     "SignalError",
     "UnitError",
     "__version__",

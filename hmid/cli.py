@@ -15,8 +15,8 @@ hmid: system identification of soft fluidic actuators (the Hydro Muscle).
 commands:
   simulate    generate a simulated data set (rig logs + ground truth, or the thesis's Ch. 2
               relaxation curves and figure) from a config
-  run         run an identification experiment: friction, model families, held-out
-              comparison, report (HTML + Markdown + JSON + figures)
+  run         run an identification experiment on any declared rig: friction, model
+              families, held-out comparison, the loop, report (HTML + Markdown + JSON + figures)
   summary     load, validate, denoise and summarise the logs named by an experiment config
   sweep       run one experiment over many logs or settings (process pool or Dask cluster)
               and compare the runs in one table
@@ -26,12 +26,10 @@ commands:
 def _simulate(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from hmid.config import load_yaml_model
     from hmid.files import fresh_dir
-    from hmid.simulate.dataset import DatasetConfig
-    from hmid.simulate.write import write_dataset
+    from hmid.simulate.datasets import load_dataset_config, write_any
 
-    config = load_yaml_model(args.config, DatasetConfig)
+    config = load_dataset_config(args.config)
     fresh_dir(args.out, replace=args.replace)  # fail before any work is done
     with tqdm(total=len(config.logs), desc="simulating", unit="log", disable=args.quiet) as bar:
 
@@ -39,7 +37,7 @@ def _simulate(args: argparse.Namespace) -> int:
             bar.set_postfix_str(name)
             bar.update()
 
-        paths = write_dataset(config, args.out, replace=args.replace, progress=step)
+        paths = write_any(config, args.out, replace=args.replace, progress=step)
     print(f"wrote {len(paths)} simulated entries with their ground truth to {args.out}")
     return 0
 
@@ -48,18 +46,41 @@ def _run(args: argparse.Namespace) -> int:
     from pipelines.identify import run
 
     run_dir, metrics = run(Path(args.config), results=Path(args.results), force=args.force)
-    best = metrics["held_out"][0]
-    rmse = best["rmse (held-out)"]
-    rmse_text = "n/a" if rmse is None else f"{rmse:.4g} N"
-    print(f"best model: {best['model']}, held-out RMSE {rmse_text} ({best['error kind']})")
+    print(console_summary(metrics))
     print(f"report: {run_dir / 'report.html'}")
     return 0
+
+
+def console_summary(metrics: dict) -> str:
+    """What a run found, in a few lines: the best model, the loop's verdict with its before and
+    after (model names, one-step held-out RMSE), and the sign check."""
+    unit = metrics["explained"]["unit"]
+    best = metrics["held_out"][0]
+    rmse = best["rmse (held-out)"]
+    rmse_text = "n/a" if rmse is None else f"{rmse:.4g} {unit}"
+    lines = [
+        f"best model: {best['model']}, held-out RMSE {rmse_text} of "
+        f"{metrics['explained']['name']} ({best['error kind']})"
+    ]
+    loop = metrics.get("loop")
+    if loop is not None:
+        added = ", ".join(e["name"] for e in loop["effects"]) or "nothing added"
+        before, after = loop["held_out_before"]["rmse"], loop["held_out_after"]["rmse"]
+        lines.append(
+            f"loop on {loop['base']}: {loop['verdict']} ({added}); held-out RMSE "
+            f"{loop['base']} {before:.4g} -> {loop['after']} {after:.4g} {unit} (one-step)"
+        )
+    findings = metrics.get("sign_findings") or []
+    if findings:
+        names = ", ".join(f"{f['model']}: {f['parameter']}" for f in findings)
+        lines.append(f"sign check: {len(findings)} parameter(s) with an impossible sign ({names})")
+    return "\n".join(lines)
 
 
 def _summary(args: argparse.Namespace) -> int:
     from pipelines.summary import run
 
-    run_dir = run(Path(args.config), results=Path(args.results), quiet=args.quiet)
+    run_dir = run(Path(args.config), results=Path(args.results))
     print(f"report: {run_dir / 'summary.md'}")
     return 0
 
@@ -124,22 +145,6 @@ def _blind(args: argparse.Namespace) -> int:
     return 0 if targets["met"].all() else 1
 
 
-def _study(args: argparse.Namespace) -> int:
-    from pipelines.pneumatic import DataAbsent, run
-
-    try:
-        run_dir, metrics = run(Path(args.config), results=Path(args.results))
-    except DataAbsent as err:
-        print(f"hmid study: skipped: {err}")
-        return 0
-    for seal, m in metrics["seals"].items():
-        before, after = m["held_out_before"]["rmse"], m["held_out_after"]["rmse"]
-        added = ", ".join(e["name"] for e in m["effects"]) or "none"
-        print(f"{seal}: {m['verdict']}; added {added}; held-out RMSE {before:.4g} -> {after:.4g} N")
-    print(f"report: {run_dir / 'report.html'}")
-    return 0
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="hmid", description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -163,10 +168,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "run",
         help="run an identification experiment and write its report",
-        description="Run the identification study of an experiment config: load and validate "
-        "the logs, denoise, identify friction from the free-fall logs, reconstruct the muscle "
-        "force, fit every configured model family on the training rows, score all of them on "
-        "the held-out rows, and write results/<experiment>/<run-id>/ (report.html, report.md, "
+        description="Run the identification study of an experiment config on the rig its "
+        "rig section declares: load and validate the logs, denoise both sides of the balance "
+        "alike, identify friction from free-fall logs where the rig takes it from them, fit "
+        "every configured model family on the training rows, score all of them on the held-out "
+        "rows, close the loop on the model loop.base names, check every physically positive "
+        "parameter's sign, and write results/<experiment>/<run-id>/ (report.html, report.md, "
         "metrics.json, tables/, figures/, manifest.json, config.yaml). Stage results are cached "
         "by content hash; --force recomputes everything.",
     )
@@ -184,7 +191,6 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("config", type=Path, help="experiment config (YAML), e.g. configs/demo.yaml")
     p.add_argument("--results", default="results", help="results root folder (default: results)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_summary)
 
     p = sub.add_parser(
@@ -227,18 +233,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_blind)
 
-    p = sub.add_parser(
-        "study",
-        help="the loop on measured pneumatic-cylinder logs",
-        description="Run the measured-data study (configs/studies/pneumatic.yaml): per seal, "
-        "fit the base model (rod force = pressure x area - Coulomb friction) on some pressure "
-        "levels, hold out the others, run the loop, and write results/<study>/<run-id>/ "
-        "(report.html, report.md, metrics.json, tables/, figures/). Skips with a message and "
-        "exit status 0 when the shared data are absent.",
-    )
-    p.add_argument("config", type=Path, help="study config (YAML)")
-    p.add_argument("--results", default="results", help="results root folder (default: results)")
-    p.set_defaults(func=_study)
     return parser
 
 

@@ -1,34 +1,85 @@
-"""Denoising stage: smoothed P, x, F and estimated velocity and acceleration, as new channels."""
+"""Denoising stage: smoothed channels and estimated velocity and acceleration, as new channels.
+
+A log may first be split where its logger paused (``split_gaps``), so that no filter runs across
+a gap; pieces too short for the filters are left out and listed, never dropped silently.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from dataclasses import dataclass
+
 from hmid.errors import LogError, SignalError
 from hmid.io.log import Log
+from hmid.io.segments import split_at_gaps
 from hmid.signal import Differentiator, Smoother, estimate_motion
 
+#: Derived channels: the differentiator's estimates, and those through the smoother too.
+DERIVED = ("v", "a_est", "v_s", "a_s")
 
-def denoise_log(log: Log, smoother: Smoother, differentiator: Differentiator) -> Log:
-    """A copy of ``log`` with ``<c>_s`` (smoothed) for each of P, x, F present, and v, a from x.
 
-    Velocity and acceleration come from the raw x through ``differentiator`` (which smooths on
-    its own terms), not from the smoothed x, so the two filters do not compound their lag. A log
-    too short for the windows (or otherwise unfit for them) is a :class:`LogError` naming it.
+def denoise_log(
+    log: Log,
+    smoother: Smoother,
+    differentiator: Differentiator,
+    *,
+    channels: Iterable[str] | None = None,
+    position: str | None = "x",
+) -> Log:
+    """A copy of ``log`` with ``<c>_s`` (smoothed) for each of ``channels`` (default: every
+    channel), and from ``position``: ``v`` and ``a_est`` (the differentiator's estimates) and
+    ``v_s``, ``a_s`` (those through the smoother as well, like every other signal a model reads,
+    unless the differentiator already differentiates the smoothed position). A log too short for
+    the windows is a :class:`LogError` naming it.
     """
     t = log.t
-    channels, units = {}, {}
+    names = log.channels if channels is None else tuple(channels)
+    out, units = {}, {}
     step = "smoothing"
     try:
-        for c in ("P", "x", "F"):
+        for c in names:
             if c in log:
-                channels[f"{c}_s"], units[f"{c}_s"] = smoother(t, log[c]), log.units[c]
-        if "x" in log:
+                out[f"{c}_s"], units[f"{c}_s"] = smoother(t, log[c]), log.units[c]
+        if position is not None and position in log:
             step = "differentiating"
-            v, a = estimate_motion(t, log["x"], differentiator)
-            channels |= {"v": v, "a_est": a}
-            units |= {"v": "m/s", "a_est": "m/s^2"}
+            v, a = estimate_motion(t, log[position], differentiator)
+            unit = log.units[position]
+            smoothed = differentiator.includes(smoother)
+            v_s, a_s = (v, a) if smoothed else (smoother(t, v), smoother(t, a))
+            out |= {"v": v, "a_est": a, "v_s": v_s, "a_s": a_s}
+            units |= {"v": f"{unit}/s", "a_est": f"{unit}/s^2", "v_s": f"{unit}/s",
+                      "a_s": f"{unit}/s^2"}  # fmt: skip
     except SignalError as err:
         raise LogError(
             f"{log.source}: {step} failed: {err}; use a longer log or shorter windows "
             "in the config's denoise section"
         ) from None
-    return log.with_channels(units=units, **channels)
+    return log.with_channels(units=units, **out)
+
+
+@dataclass(frozen=True)
+class Piece:
+    """A contiguous piece of a log (the whole log unless it was split at a pause)."""
+
+    log: str
+    start_s: float
+    duration_s: float
+    samples: int
+    used: bool  # long enough for the filters
+
+
+def pieces(log: Log, name: str, split_gaps_s: float | None, min_duration_s: float):
+    """``(pieces long enough for the filters, a Piece record of every piece)``."""
+    parts = [log] if split_gaps_s is None else split_at_gaps(log, split_gaps_s)
+    kept, records = [], []
+    for part in parts:
+        usable = part.duration >= min_duration_s
+        records.append(Piece(name, float(part.t[0]), part.duration, len(part), usable))
+        if usable:
+            kept.append(part)
+    if not kept:
+        raise LogError(
+            f"{log.source}: no piece between logger pauses lasts {min_duration_s:g} s, three "
+            "filter windows; shorten the windows or raise denoise.split_gaps_s"
+        )
+    return kept, records

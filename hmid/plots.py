@@ -1,4 +1,4 @@
-"""Figures for the comparison report: measured vs predicted force, residuals (matplotlib, Agg)."""
+"""Figures for the comparison report: measured vs predicted balance, residuals (matplotlib, Agg)."""
 
 from __future__ import annotations
 
@@ -27,17 +27,20 @@ def _held_out_time(frame: pd.DataFrame) -> tuple[np.ndarray, list[tuple[float, s
     return t_axis, marks
 
 
-def plot_model(predictions: pd.DataFrame, model: str, path: Path) -> None:
-    """Four panels for one model on held-out data: force over time (cf. thesis Fig. 4.4),
-    residual over time, residual histogram, predicted vs measured."""
+def plot_model(
+    predictions: pd.DataFrame, model: str, path: Path, label: str = "F_m", unit: str = "N"
+) -> None:
+    """Four panels for one model on held-out data: the measured quantity it explains (``label``,
+    known terms subtracted) over time (cf. thesis Fig. 4.4), residual over time, residual
+    histogram, predicted vs measured."""
     frame = predictions.reset_index(drop=True)
-    y, y_hat = frame["F_m"].to_numpy(), frame[model].to_numpy()
+    y, y_hat = frame["target"].to_numpy(), frame[model].to_numpy()
     residual = y - y_hat
     t_axis, marks = _held_out_time(frame)
     fig = _figure(figsize=(11, 6.5))
     grid = fig.add_gridspec(2, 3)
     ax = fig.add_subplot(grid[0, :])
-    ax.plot(t_axis, y, ".", ms=1.5, color="0.55", label="measured (reconstructed) F_m")
+    ax.plot(t_axis, y, ".", ms=1.5, color="0.55", label=f"measured {label}")
     if f"{model} lower" in frame:
         ax.fill_between(t_axis, frame[f"{model} lower"], frame[f"{model} upper"], color="C0",
                         alpha=0.25, lw=0, label="posterior predictive band")  # fmt: skip
@@ -45,32 +48,32 @@ def plot_model(predictions: pd.DataFrame, model: str, path: Path) -> None:
     for start, name in marks:
         ax.axvline(start, color="0.8", lw=0.8)
         ax.text(start, ax.get_ylim()[1], f" {name}", va="top", fontsize=7, color="0.4")
-    ax.set(xlabel="held-out time, logs end to end [s]", ylabel="muscle force [N]")
+    ax.set(xlabel="held-out time, logs end to end [s]", ylabel=f"{label} [{unit}]")
     ax.legend(loc="lower right", fontsize=8)
     ax = fig.add_subplot(grid[1, 0])
     ax.plot(t_axis, residual, ".", ms=1, color="C3")
     ax.axhline(0, color="k", lw=0.6)
-    ax.set(xlabel="held-out time [s]", ylabel="residual [N]")
+    ax.set(xlabel="held-out time [s]", ylabel=f"residual [{unit}]")
     ax = fig.add_subplot(grid[1, 1])
     ax.hist(residual, bins=60, color="C3", alpha=0.8)
-    ax.set(xlabel="residual [N]", ylabel="samples")
+    ax.set(xlabel=f"residual [{unit}]", ylabel="samples")
     ax = fig.add_subplot(grid[1, 2])
     ax.plot(y, y_hat, ".", ms=1, alpha=0.5)
     lims = [min(y.min(), y_hat.min()), max(y.max(), y_hat.max())]
     ax.plot(lims, lims, "k-", lw=0.6)
-    ax.set(xlabel="measured F_m [N]", ylabel="predicted F_m [N]")
+    ax.set(xlabel=f"measured [{unit}]", ylabel=f"predicted [{unit}]")
     fig.suptitle(f"{model}: held-out data", fontsize=11)
     fig.tight_layout()
     fig.savefig(path, dpi=90, format="png")
 
 
-def plot_scores(scores: pd.DataFrame, path: Path) -> None:
+def plot_scores(scores: pd.DataFrame, path: Path, unit: str = "N") -> None:
     """Held-out RMSE and NRMSE fit of every model, side by side."""
     fig = _figure(figsize=(10, 0.5 * len(scores) + 1.6))
     axes = fig.subplots(1, 2)
     names = scores["model"][::-1]
     axes[0].barh(names, scores["rmse (held-out)"][::-1], color="C0")
-    axes[0].set_xlabel("held-out RMSE [N] (one-step)")
+    axes[0].set_xlabel(f"held-out RMSE [{unit}] (one-step)")
     axes[1].barh(names, scores["nrmse_fit_pct (held-out)"][::-1], color="C2")
     axes[1].set_xlabel("held-out NRMSE fit [%]")
     axes[1].set_yticklabels([])

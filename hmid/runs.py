@@ -2,7 +2,9 @@
 
 The manifest records what is needed to replay a run: the resolved config, a SHA-256 of every
 input file, the git commit (and whether the tree was dirty), package versions, the seed, and
-start/end times with per-stage wall times.
+start/end times with per-stage wall times. It is written when the folder is made (``status:
+running``) and again at the end (``complete``, or ``failed`` with the one-line error), so a folder
+is never half-made without saying so. Every command opens its folder with :func:`open_run`.
 """
 
 from __future__ import annotations
@@ -78,6 +80,8 @@ class Manifest:
     stages: dict[str, float] = field(default_factory=dict)
     cache: dict[str, bool] = field(default_factory=dict)  # stage -> read from the cache
     started: str = field(default_factory=_now)
+    status: str = "running"
+    error: str | None = None
 
     def add_input(self, path: Path) -> None:
         self.inputs[str(path)] = sha256(path)
@@ -99,8 +103,10 @@ class Manifest:
                 "inputs_sha256": self.inputs,
                 "git": git_state(),
                 "versions": versions(),
+                "status": self.status,
+                "error": self.error,
                 "started": self.started,
-                "finished": _now(),
+                "finished": None if self.status == "running" else _now(),
                 "stage_wall_s": {k: round(v, 4) for k, v in self.stages.items()},
                 "stage_cached": self.cache,
             },
@@ -112,3 +118,56 @@ def config_json(config) -> str:
     # where the config file sits (base_dir) is provenance, not content: it must not change the id
     exclude = {"base_dir"} if "base_dir" in type(config).model_fields else None
     return json.dumps(config.model_dump(mode="json", exclude=exclude), sort_keys=True)
+
+
+@dataclass
+class RunFolder:
+    """An open run folder: its path, manifest and provenance (for the report)."""
+
+    path: Path
+    manifest: Manifest
+    config_path: Path
+
+    def provenance(self, **extra: str) -> dict[str, str]:
+        git = git_state()
+        return {
+            "config": str(self.config_path),
+            "config sha256": self.manifest.inputs[str(self.config_path)],
+            "git commit": f"{git['commit']}{' (dirty)' if git['dirty'] else ''}",
+            "seed": str(self.manifest.seed),
+            "run folder": str(self.path),
+            **extra,
+            **{f"version {k}": str(v) for k, v in versions().items()},
+        }
+
+
+@contextmanager
+def open_run(
+    results: Path,
+    name: str,
+    config_path: Path,
+    resolved: str,
+    seed: int,
+    inputs: list[Path],
+    copy_as: str = "config.yaml",
+) -> Iterator[RunFolder]:
+    """A new run folder holding the config file (as ``copy_as``) and a manifest that says
+    ``running``; it says ``complete`` when the block ends, ``failed`` (with the error) when it
+    raises or is interrupted."""
+    from hmid.files import write_text
+
+    path = new_run_dir(Path(results), name, resolved).resolve()
+    manifest = Manifest(path, json.loads(resolved), seed)
+    for item in [Path(config_path), *inputs]:
+        manifest.add_input(item)
+    write_text(path / copy_as, Path(config_path).read_text(encoding="utf-8"))
+    manifest.write()
+    try:
+        yield RunFolder(path, manifest, Path(config_path))
+    except BaseException as err:
+        manifest.status = "failed"
+        manifest.error = " ".join(str(err).split()) or type(err).__name__
+        manifest.write()
+        raise
+    manifest.status = "complete"
+    manifest.write()

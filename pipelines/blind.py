@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import tempfile
+import warnings
 from collections.abc import Callable
 from concurrent.futures import as_completed
 from pathlib import Path
@@ -21,6 +22,7 @@ import yaml
 from pydantic import ValidationError
 
 from hmid._messages import format_validation_error
+from hmid.balance import RigSection
 from hmid.blind import (
     Case,
     check_targets,
@@ -31,19 +33,28 @@ from hmid.blind import (
     plan_cases,
     suite_table,
 )
-from hmid.errors import ConfigError
-from hmid.experiment import ExperimentConfig
+from hmid.errors import ConfigError, HmidWarning
+from hmid.experiment import ExperimentConfig, experiment_from
 from hmid.files import write_json, write_text
 from hmid.report.markdown import markdown_table
-from hmid.runs import Manifest, new_run_dir
-from hmid.sweep._execute import open_executor
+from hmid.runs import open_run
+from hmid.sweep import open_executor
 
 
-def _experiment(template: dict, folder: Path, index: list[dict], source: str) -> ExperimentConfig:
+def check_template(template: dict, source: str) -> None:
+    """The experiment template is valid with logs filled in (before any case runs)."""
     try:
-        return ExperimentConfig.model_validate(experiment_for(template, folder, index))
+        rig = RigSection.model_validate(template.get("rig"))
+    except ValidationError as err:
+        raise ConfigError(format_validation_error(err, f"{source}: rig", RigSection)) from None
+    roles = ("dynamic", "free_fall") if rig.from_free_fall else ("dynamic",)
+    probe = [{"path": "probe.csv", "columns": "probe.yaml", "role": role} for role in roles]
+    try:
+        config = ExperimentConfig.model_validate({**template, "logs": probe})
     except ValidationError as err:
         raise ConfigError(format_validation_error(err, source, ExperimentConfig)) from None
+    if config.loop is None:
+        raise ConfigError(f"{source}: the experiment template needs a 'loop' section")
 
 
 def run_case(case: Case, dataset: dict, experiment: dict, source: str) -> dict[str, Any]:
@@ -56,11 +67,13 @@ def run_case(case: Case, dataset: dict, experiment: dict, source: str) -> dict[s
         folder = Path(tmp) / "data"
         write_dataset(DatasetConfig.model_validate(dataset_for(dataset, case)), folder)
         index = yaml.safe_load((folder / "index.yaml").read_text(encoding="utf-8"))["logs"]
-        config = _experiment(experiment, folder, index, source)
-        if config.loop is None:
-            raise ConfigError(f"{source}: the experiment template needs a 'loop' section")
-        artifacts = analyse(config, ("loop",), Path(tmp) / "cache")
-        return outcome(case, artifacts["loop"])
+        config = experiment_from(experiment_for(experiment, folder, index), source, folder)
+        # findings (an effect may drive a sensor to its rails) go in the outcome, not the console
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", HmidWarning)
+            artifacts = analyse(config, ("loop",), Path(tmp) / "cache")
+        found = sorted({str(w.message) for w in caught if issubclass(w.category, HmidWarning)})
+        return outcome(case, artifacts["loop"]) | {"findings": len(found)}
 
 
 def run(
@@ -75,22 +88,23 @@ def run(
     dataset_path, experiment_path = suite.resolve(suite.dataset), suite.resolve(suite.experiment)
     dataset = yaml.safe_load(dataset_path.read_text(encoding="utf-8"))
     experiment = yaml.safe_load(experiment_path.read_text(encoding="utf-8"))
-    probe = [{"file": "probe.csv", "columns": "probe.yaml", "kind": "dynamic"}]
-    _experiment(experiment, Path("."), probe, str(experiment_path))  # template errors first
+    check_template(experiment, str(experiment_path))  # template errors first, in one line
+    resolved = json.dumps(suite.model_dump(mode="json", exclude={"base_dir"}), sort_keys=True)
+    with open_run(results, suite.name, Path(suite_path), resolved, suite.seed,
+                  [dataset_path, experiment_path], copy_as="suite.yaml") as folder:  # fmt: skip
+        table, targets = _run_cases(suite, dataset, experiment, str(experiment_path), folder,
+                                    workers, progress)  # fmt: skip
+    return folder.path, table, targets
 
-    resolved = json.dumps(suite.model_dump(mode="json"), sort_keys=True)
-    run_dir = new_run_dir(Path(results), suite.name, resolved)
-    manifest = Manifest(run_dir, json.loads(resolved), suite.seed)
-    for path in (Path(suite_path), dataset_path, experiment_path):
-        manifest.add_input(path)
-    write_text(run_dir / "suite.yaml", Path(suite_path).read_text(encoding="utf-8"))
+
+def _run_cases(suite, dataset, experiment, source, folder, workers, progress):
+    run_dir, manifest = folder.path, folder.manifest
     cases = plan_cases(suite)
     rows = []
     section = suite.executor.with_options(workers=workers, scheduler=None)
     with manifest.stage("cases"), open_executor(section) as executor:
         futures = {
-            executor.submit(run_case, case, dataset, experiment, str(experiment_path)): case
-            for case in cases
+            executor.submit(run_case, case, dataset, experiment, source): case for case in cases
         }
         for future in as_completed(futures):
             case = futures[future]
@@ -109,8 +123,7 @@ def run(
     table.to_csv(run_dir / "blind.csv", index=False)
     targets.to_csv(run_dir / "targets.csv", index=False)
     write_text(run_dir / "blind.md", _markdown(suite, table, targets))
-    manifest.write()
-    return run_dir, table, targets
+    return table, targets
 
 
 def _markdown(suite, table: pd.DataFrame, targets: pd.DataFrame) -> str:

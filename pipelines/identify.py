@@ -1,17 +1,17 @@
-"""Identification study: load -> denoise -> friction -> reconstruct -> split -> fit -> compare,
+"""Identification study: load -> denoise -> friction -> signals -> split -> fit -> compare -> loop,
 then tables, figures, metrics and the report in a new run folder."""
 
 from __future__ import annotations
 
-import json
+import warnings
 from pathlib import Path
 
-from hmid.experiment import load_experiment
-from hmid.files import write_text
+from hmid.errors import HmidWarning
+from hmid.experiment import ExperimentConfig, load_experiment
 from hmid.pipeline import Runner, Stage
 from hmid.pipeline import stages as s
 from hmid.pipeline.reporting import write_outputs
-from hmid.runs import Manifest, config_json, git_state, new_run_dir, versions
+from hmid.runs import config_json, open_run
 
 
 def _section(*names):
@@ -20,10 +20,10 @@ def _section(*names):
 
 STAGES = (
     Stage("load", s.load, (), s.load_depends),
-    Stage("denoise", s.denoise, ("load",), _section("denoise")),
+    Stage("denoise", s.denoise, ("load",), _section("denoise", "rig")),
     Stage("friction", s.friction, ("denoise",), _section("friction", "rig", "denoise")),
-    Stage("reconstruct", s.reconstruct, ("denoise", "friction"), _section("rig", "friction")),
-    Stage("split", s.split, ("reconstruct",), _section("split", "fit")),
+    Stage("signals", s.signals, ("denoise", "friction"), _section("rig", "fit", "denoise")),
+    Stage("split", s.split, ("signals",), _section("split")),
     Stage(
         "fit",
         s.fit,
@@ -34,13 +34,13 @@ STAGES = (
     Stage(
         "loop",
         s.loop,
-        ("split",),
+        ("split", "fit"),
         lambda c: {"loop": c.loop.model_dump(mode="json") if c.loop else None},
     ),
 )
 
 
-def analyse(config, stages: tuple[str, ...], cache: Path, *, force: bool = False) -> dict:
+def analyse(config: ExperimentConfig, stages: tuple[str, ...], cache: Path, *, force=False) -> dict:
     """Run the named stages and those they need (no run folder, no report); the artifacts."""
     by_name = {stage.name: stage for stage in STAGES}
     needed, todo = set(), list(stages)
@@ -57,29 +57,16 @@ def run(
 ) -> tuple[Path, dict]:
     """Run the study; returns the new run folder and the metrics."""
     config = load_experiment(config_path)
+    inputs = [config.resolve(p) for e in config.logs for p in (e.path, e.columns)]
     resolved = config_json(config)
-    run_dir = new_run_dir(results, config.name, resolved)
-    manifest = Manifest(run_dir, json.loads(resolved), config.seed)
-    manifest.add_input(config_path)
-    for entry in config.logs:
-        manifest.add_input(config.resolve(entry.path))
-        manifest.add_input(config.resolve(entry.columns))
-    write_text(run_dir / "config.yaml", Path(config_path).read_text(encoding="utf-8"))
-
-    runner = Runner(Path(results) / config.name / ".cache", force=force)
-    artifacts = runner.run(STAGES, config)
-    manifest.stages = {name: r.wall_s for name, r in runner.records.items()}
-    manifest.cache = {name: r.cached for name, r in runner.records.items()}
-    git = git_state()
-    provenance = {
-        "config": str(config_path),
-        "config sha256": manifest.inputs[str(config_path)],
-        "git commit": f"{git['commit']}{' (dirty)' if git['dirty'] else ''}",
-        "seed": str(config.seed),
-        "run folder": str(run_dir),
-        **{f"version {k}": str(v) for k, v in versions().items()},
-    }
-    with manifest.stage("report"):
-        metrics = write_outputs(config, artifacts, run_dir, provenance)
-    manifest.write()
-    return run_dir, metrics
+    with open_run(results, config.name, config_path, resolved, config.seed, inputs) as folder:
+        runner = Runner(Path(results) / config.name / ".cache", force=force)
+        artifacts = runner.run(STAGES, config)
+        folder.manifest.stages = {name: r.wall_s for name, r in runner.records.items()}
+        folder.manifest.cache = {name: r.cached for name, r in runner.records.items()}
+        for model in artifacts["fit"]:  # said on every run, the cached ones too
+            for finding in model.findings:
+                warnings.warn(finding.message(), HmidWarning, stacklevel=2)
+        with folder.manifest.stage("report"):
+            metrics = write_outputs(config, artifacts, folder.path, folder.provenance())
+    return folder.path, metrics

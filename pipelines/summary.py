@@ -2,48 +2,35 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
-from tqdm import tqdm
-
-from hmid.denoise import denoise_log
-from hmid.experiment import load_experiment
+from hmid.experiment import load_experiment, log_units
 from hmid.files import write_json, write_text
-from hmid.io import load_column_map, read_log
-from hmid.runs import Manifest, config_json, new_run_dir
+from hmid.pipeline import Runner
+from hmid.runs import config_json, open_run
 from hmid.summary import markdown, plot_overview, summarize
+from pipelines.identify import STAGES
 
 
 def run(config_path: Path, *, results: Path = Path("results"), quiet: bool = False) -> Path:
     """Run the summary study of ``config_path``; returns the run folder."""
     config = load_experiment(config_path)
-    resolved = config_json(config)
-    run_dir = new_run_dir(results, config.name, resolved)
-    manifest = Manifest(run_dir, json.loads(resolved), config.seed)
-    manifest.add_input(config_path)
-    write_text(run_dir / "config.yaml", Path(config_path).read_text(encoding="utf-8"))
-    smoother = config.denoise.smoother.build()
-    differentiator = config.denoise.derivative.build()
-
-    logs, summaries = {}, []
-    for entry in tqdm(config.logs, desc="logs", unit="log", disable=quiet):
-        path, columns_path = config.resolve(entry.path), config.resolve(entry.columns)
-        with manifest.stage("load"):
-            log = read_log(path, load_column_map(columns_path), rig=config.rig.constants())
-        manifest.add_input(path)
-        manifest.add_input(columns_path)
-        with manifest.stage("denoise"):
-            log = denoise_log(log, smoother, differentiator)
-        name = path.stem
-        logs[name] = log
-        summaries.append(summarize(name, entry.role, log))
-
-    with manifest.stage("report"):
-        write_json(run_dir / "summary.json", [s.as_dict() for s in summaries])
-        write_text(run_dir / "summary.md", markdown(summaries, f"Data summary: {config.name}"))
-        dynamic = {n: lg for n, lg in logs.items() if "P" in lg}
-        if dynamic:
-            plot_overview(dynamic, run_dir / "overview.png")
-    manifest.write()
-    return run_dir
+    inputs = [config.resolve(p) for e in config.logs for p in (e.path, e.columns)]
+    with open_run(
+        results, config.name, config_path, config_json(config), config.seed, inputs
+    ) as folder:
+        runner = Runner(Path(results) / config.name / ".cache")
+        artifacts = runner.run([s for s in STAGES if s.name in ("load", "denoise")], config)
+        folder.manifest.stages = {name: r.wall_s for name, r in runner.records.items()}
+        channels = list(config.rig.log_channels)
+        summaries = [
+            summarize(name, item.role, item.pieces, channels)
+            for name, item in artifacts["denoise"].items()
+        ]
+        with folder.manifest.stage("report"):
+            write_json(folder.path / "summary.json", [s.as_dict() for s in summaries])
+            text = markdown(summaries, log_units(config), f"Data summary: {config.name}")
+            write_text(folder.path / "summary.md", text)
+            dynamic = {n: i.pieces for n, i in artifacts["denoise"].items() if i.role == "dynamic"}
+            plot_overview(dynamic, channels, folder.path / "overview.png")
+    return folder.path

@@ -16,14 +16,26 @@ from hmid.sweep import RunRecord, SweepOutcome, SweepPlan, execute, load_sweep, 
 
 def summarize(metrics: dict) -> dict[str, Any]:
     """The table columns of one identification run, from its metrics."""
-    out: dict[str, Any] = {"best model": metrics["best_model"]}
+    unit = metrics["explained"]["unit"]
+    out: dict[str, Any] = {"rig": metrics["rig"], "best model": metrics["best_model"]}
     held_out = {row["model"]: row for row in metrics["held_out"]}  # sorted by RMSE
     out["best R² (held-out)"] = held_out[metrics["best_model"]]["r2 (held-out)"]
     for model in [fit["model"] for fit in metrics["fit"]]:  # in config order: stable columns
-        out[f"RMSE {model} [N]"] = held_out[model]["rmse (held-out)"]
+        out[f"RMSE {model} [{unit}]"] = held_out[model]["rmse (held-out)"]
+    for model, table in metrics.get("parameters", {}).items():
+        for name, row in table.items():
+            out[f"{model}: {name} [{row['unit']}]"] = row["value"]
     friction = metrics["friction"]
-    for name, value in friction["params"].items():
+    for name, value in (friction or {}).get("params", {}).items():
         out[f"friction {name} [{friction['units'][name]}]"] = value
+    loop = metrics.get("loop")
+    if loop is not None:
+        out["loop"] = f"{loop['verdict']}: " + (
+            " + ".join(e["name"] for e in loop["effects"]) or "nothing added"
+        )
+        out[f"loop RMSE before → after [{unit}]"] = (
+            f"{loop['held_out_before']['rmse']:.4g} → {loop['held_out_after']['rmse']:.4g}"
+        )
     return out
 
 

@@ -5,10 +5,13 @@ import shutil
 from pathlib import Path
 
 import pytest
+import yaml
 
 from hmid.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
+#: The demo's rig section, as a flow-style YAML line
+RIG = "rig: " + json.dumps(yaml.safe_load((ROOT / "configs/demo.yaml").read_text())["rig"])
 
 
 def test_help_lists_the_commands(capsys):
@@ -16,11 +19,11 @@ def test_help_lists_the_commands(capsys):
         main(["--help"])
     assert exit_.value.code == 0
     out = capsys.readouterr().out
-    for command in ("simulate", "summary", "run", "sweep", "blind", "study"):
+    for command in ("simulate", "summary", "run", "sweep", "blind"):
         assert command in out
 
 
-@pytest.mark.parametrize("command", ["simulate", "summary", "blind", "study"])
+@pytest.mark.parametrize("command", ["simulate", "summary", "run", "sweep", "blind"])
 def test_each_command_explains_itself(command, capsys):
     with pytest.raises(SystemExit):
         main([command, "--help"])
@@ -47,14 +50,15 @@ def test_simulate_then_summary_end_to_end(tmp_path, capsys):
     assert main(["simulate", str(config), "--out", str(tmp_path / "data"), "--quiet"]) == 0
     experiment = tmp_path / "exp.yaml"
     experiment.write_text(
-        "name: tiny\nseed: 5\nrig: {M: 0.25, m1: 0.5}\nlogs:\n"
+        f"name: tiny\nseed: 5\n{RIG}\nlogs:\n"
         "  - {path: data/sine.csv, columns: data/columns-dynamic.yaml, role: dynamic}\n"
         "  - {path: data/drop.csv, columns: data/columns-free_fall.yaml, role: free_fall}\n"
+        "models: [{family: polynomial, variants: [quadratic_xv]}]\n"
     )
     results = tmp_path / "results"
     for _ in range(2):  # a second run gets its own folder: nothing is overwritten
-        assert main(["summary", str(experiment), "--results", str(results), "--quiet"]) == 0
-    runs = sorted((results / "tiny").iterdir())
+        assert main(["summary", str(experiment), "--results", str(results)]) == 0
+    runs = sorted(p for p in (results / "tiny").iterdir() if not p.name.startswith("."))
     assert len(runs) == 2
     first = runs[0]
     for name in ("summary.md", "summary.json", "manifest.json", "config.yaml", "overview.png"):
@@ -86,8 +90,10 @@ def test_missing_log_file_names_the_key(tmp_path, capsys):
     experiment = tmp_path / "exp.yaml"
     shutil.copy(ROOT / "data/demo/columns-dynamic.yaml", tmp_path / "c.yaml")
     experiment.write_text(
-        "name: x\nseed: 1\nrig: {M: 1, m1: 1}\nlogs:\n"
+        "name: x\nseed: 1\nrig: {channels: {x: {}}, position: x, explained: F, "
+        "balance: [{kind: channel, name: M, channel: a}]}\nlogs:\n"
         "  - {path: nope.csv, columns: c.yaml, role: dynamic}\n"
+        "models: [{family: balance}]\n"
     )
     assert main(["summary", str(experiment), "--results", str(tmp_path / "r")]) == 2
     assert "key 'logs.0.path': file" in capsys.readouterr().err

@@ -1,5 +1,5 @@
-"""Friction: recovered against simulator truth (Fc = F_block + F_pulley = 0.35 N), reconstruction
-of the muscle force against the true F_m, and one-line errors that name the log."""
+"""Friction: recovered against simulator truth (Fc = F_block + F_pulley = 0.35 N), and one-line
+errors that name the log. (How the friction enters a balance: tests/balance/test_prepare.py.)"""
 
 import json
 
@@ -8,29 +8,25 @@ import pandas as pd
 import pytest
 from scipy.integrate import solve_ivp
 
-from hmid.denoise import denoise_log
 from hmid.errors import ConfigError, LogError
 from hmid.friction import (
     Coulomb,
     CoulombViscous,
-    FrictionEstimate,
+    FallRig,
     derivative_reach,
     identify_friction,
     plot_free_fall,
-    reconstruct_muscle_force,
     sliding_segment,
 )
 from hmid.friction._models import _phi
-from hmid.io.log import Log, RigConstants
+from hmid.io.log import Log
 from hmid.signal import MovingAverage, SavitzkyGolay, SmoothedFiniteDifference, Window
-from hmid.simulate.dataset import DatasetConfig, DynamicLog, FreeFallLog, simulate_log
-from hmid.simulate.profiles import Sine
+from hmid.simulate.dataset import DatasetConfig, FreeFallLog, simulate_log
 
-DIFF = SavitzkyGolay(Window(seconds=0.051), polyorder=3)  # the demo's denoise.derivative
-SMOOTHER = MovingAverage(Window(seconds=0.011))
+DIFF = SavitzkyGolay(Window(seconds=0.051), polyorder=3)
 FC_TRUE = 0.35  # N, simulator default F_block + F_pulley
-RIG = RigConstants(M=0.25, m1=0.5)
 MASS, WEIGHT = 0.75, 0.5 * 9.80665
+RIG = FallRig(MASS, WEIGHT)  # M + m1 dragged by m1 g
 
 
 def _free_fall(seed: int, **kw):
@@ -200,50 +196,6 @@ def test_single_log_has_no_heterogeneity_test(demo_falls):
     assert json.loads(json.dumps(est.to_dict()))["heterogeneity"]["p"] is None
 
 
-# -- reconstruction -----------------------------------------------------------------------------
-def _true_friction() -> FrictionEstimate:
-    return FrictionEstimate.known(Coulomb(), {"Fc": FC_TRUE}, RIG)
-
-
-@pytest.fixture(scope="module")
-def dynamic():
-    spec = DynamicLog(name="sine", duration=6.0, profile=Sine(), seed=5)
-    sim = simulate_log(DatasetConfig(seed=0, logs=(spec,)), spec)
-    return sim, denoise_log(sim.log, SMOOTHER, DIFF)
-
-
-def test_load_cell_reconstruction_matches_true_muscle_force(dynamic):
-    sim, log = dynamic
-    out = reconstruct_muscle_force(log, RIG, _true_friction(), source="load_cell")
-    assert out.units["F_m"] == "N" and out.units["sliding"] == "1"
-    sliding = out["sliding"] > 0.5
-    assert np.all(out["friction"][~sliding] == 0.0) and 0.8 < sliding.mean() < 0.95
-    inner = sliding.copy()
-    inner[:100] = inner[-100:] = False  # derivative edges (see hmid.signal.derivatives)
-    err = out["F_m"] - sim.trajectory.F_m
-    # With the true friction and the right sign of v, the error is the load cell's own: noise
-    # 0.006 N and 0.01 N steps, sqrt(0.006^2 + 0.01^2/12) = 0.0067 N. One sign error costs
-    # 2 Fc = 0.7 N, so RMS < 0.008 N over ~5000 samples means no sign error (0 measured: the
-    # 2 mm/s deadband is ~10x the velocity noise, and the block sticks when v changes sign).
-    assert np.sqrt(np.mean(err[inner] ** 2)) < 0.008
-    assert np.all(np.sign(out["v"][inner]) == np.sign(sim.trajectory.v[inner]))
-
-
-def test_acceleration_reconstruction_matches_within_the_derivative_error(dynamic):
-    sim, log = dynamic
-    out = reconstruct_muscle_force(log, RIG, _true_friction(), source="acceleration")
-    inner = out["sliding"] > 0.5
-    inner[:100] = inner[-100:] = False
-    err = out["F_m"] - sim.trajectory.F_m
-    # (M + m1) a_est errs by the SG(51, cubic) second derivative's noise, 0.75 x 0.023 m/s^2
-    # = 0.017 N from 0.016 mm of x noise + steps, and by its bias: the 51 ms window flattens the
-    # rig's ~12 Hz ringing and the kinks at stick/slip (0.035 N, measured below on the true x).
-    noise = MASS * 1.607e-5 * np.sqrt(720 / (51 * (51**2 - 1) * (51**2 - 4))) / 1e-6
-    bias = MASS * (DIFF.derivative(sim.trajectory.t, sim.trajectory.x, 2) - sim.trajectory.a)
-    bound = np.sqrt(noise**2 + np.mean(bias[inner] ** 2))
-    assert np.sqrt(np.mean(err[inner] ** 2)) < 1.2 * bound < 0.06  # measured 0.040 N
-
-
 # -- errors -------------------------------------------------------------------------------------
 def test_too_short_a_fall_names_the_log():
     log = _free_fall(1, duration=0.15).log  # 50 samples slide, 25 trimmed after the release
@@ -253,30 +205,20 @@ def test_too_short_a_fall_names_the_log():
     assert "\n" not in str(err.value) and "longer fall" in str(err.value)
 
 
-def test_missing_or_bad_inputs_are_one_line_errors(demo_falls, dynamic):
-    _, log = dynamic
+def test_missing_or_bad_inputs_are_one_line_errors(demo_falls):
     no_x = Log(pd.DataFrame({"t": np.arange(100) * 1e-3, "F": np.zeros(100)}), "rig/ff.csv")
     checks = [
         (lambda: identify_friction([no_x], RIG, Coulomb(), differentiator=DIFF), LogError,
          r"^rig/ff\.csv: a free-fall log needs the position channel 'x'$"),
         (lambda: identify_friction([], RIG, Coulomb(), differentiator=DIFF), LogError, "no free"),
-        (lambda: identify_friction([demo_falls[0].log], RigConstants(), Coulomb(),
-                                   differentiator=DIFF), ConfigError, r"^rig: .* M=None"),
-        (lambda: reconstruct_muscle_force(demo_falls[0].log, RIG, _true_friction()), LogError,
-         r"^simulated:ff-1: .* channel 'v'; the denoise stage"),
-        (lambda: reconstruct_muscle_force(log, RIG, _true_friction(),
-                                          source="nope"), ConfigError, "force_source"),
+        (lambda: identify_friction([demo_falls[0].log], None, Coulomb(), differentiator=DIFF),
+         ConfigError, r"^friction needs the free fall's mass and drive"),
+        (lambda: FallRig(0.0, 4.9), ValueError, r"free-fall mass=0.0 must be a positive"),
     ]  # fmt: skip
     for call, kind, pattern in checks:
         with pytest.raises(kind, match=pattern) as err:
             call()
         assert "\n" not in str(err.value)
-    no_f = Log(log.data.drop(columns=["F"]), "rig/dyn.csv", log.units)
-    with pytest.raises(LogError, match=r"^rig/dyn\.csv: .* channel 'F'; .*'acceleration'"):
-        reconstruct_muscle_force(no_f, RIG, _true_friction())
-    no_a = Log(log.data.drop(columns=["a_est"]), "rig/dyn.csv", log.units)
-    with pytest.raises(LogError, match=r"^rig/dyn\.csv: .* channel 'a_est'; the denoise stage"):
-        reconstruct_muscle_force(no_a, RIG, _true_friction(), source="acceleration")
     bad = demo_falls[0].log.data.copy()
     bad.loc[7, "x"] = np.nan
     with pytest.raises(LogError, match=r"^bad\.csv: friction: column 'x' row 7 is not finite"):

@@ -1,13 +1,16 @@
-"""Model families as pipeline plug-ins: a typed config section that knows how to fit itself.
+"""Model families as pipeline plug-ins: a typed config section that fits a model of the balance.
 
 A family is a :class:`FamilySpec` subclass with a literal ``family`` name; it registers itself on
-definition. The experiment config lists families under ``models:``; the pipeline fits each on the
-same training rows and scores every fitted variant on the same held-out rows. Adding a family is a
-new module here plus a config section — the runner does not change.
+definition. Its :meth:`~FamilySpec.fit` returns :class:`Fitted` models whose
+:class:`FittedModel` predicts the balance's fitted part on any rows and states its terms
+(:meth:`FittedModel.structure`), so that the loop can refit any fitted model with candidate
+effects added. Families that fill the rig's model slot (polynomial, SINDy, SLS) model the
+actuator's force; the ``balance`` family fits the declared terms themselves.
 """
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,6 +21,7 @@ import pandas as pd
 from pydantic import BaseModel, ConfigDict, ValidationError
 
 from hmid._messages import format_validation_error
+from hmid.balance import RigSection, Signals, SignFinding, Structure
 from hmid.errors import ConfigError
 
 FAMILIES: dict[str, type[FamilySpec]] = {}
@@ -25,24 +29,75 @@ FAMILIES: dict[str, type[FamilySpec]] = {}
 
 @dataclass(frozen=True)
 class FitData:
-    """Rows for fitting or scoring: regressors x [m], v [m/s], P [Pa], target F_m [N].
+    """The rows a family fits or is scored on: ``signals`` (whole segments, smoothed channels,
+    ``target`` = the explained quantity less the known terms) and the ``role`` whose rows count
+    (``"train"`` or ``"validation"``). The fit stage hands families a ``target`` that is NaN
+    outside the training rows, so no held-out force can leak into a fit."""
 
-    ``sequences`` holds every dynamic log whole (columns t, x, v, P, F_m, train, validation:
-    the last two mark the rows in each set), for families with memory that must run through
-    the entire record; ``frame`` holds only this set's rows, in log order.
-    """
-
-    frame: pd.DataFrame  # columns log, t, x, v, P, F_m
-    role: str  # "train" or "validation"
-    sequences: Mapping[str, pd.DataFrame] = field(default_factory=dict)
+    signals: Signals
+    rig: RigSection
+    role: str = "train"
 
     @property
-    def X(self) -> pd.DataFrame:
-        return self.frame[["x", "v", "P"]]
+    def rows(self) -> np.ndarray:
+        return self.signals.rows(self.role)
 
     @property
     def y(self) -> np.ndarray:
-        return self.frame["F_m"].to_numpy()
+        """``target`` on this role's rows."""
+        return self.signals.target[self.rows]
+
+    def frame(self, columns: tuple[str, ...]) -> pd.DataFrame:
+        """This role's rows: log, t and ``columns`` (smoothed channels)."""
+        return self.signals.role_frame(self.role, columns)
+
+    @property
+    def slot_sign(self) -> int:
+        slot = self.rig.slot
+        return 1 if slot is None else slot.sign
+
+    def as_role(self, role: str) -> FitData:
+        return FitData(self.signals, self.rig, role)
+
+
+@dataclass(frozen=True)
+class FitContext:
+    """What a family may need beyond its config: the experiment seed, a persistent folder (the
+    stage cache) for resumable work such as an MCMC chain, the identified free-fall friction
+    (``friction.friction(v)`` in N, or None), and ``force`` (start resumable work afresh)."""
+
+    seed: int
+    workdir: Path
+    friction: Any = None  # hmid.friction.FrictionEstimate | None
+    force: bool = False
+
+
+class FittedModel(ABC):
+    """What every fitted model offers the pipeline (comparison, report, loop)."""
+
+    @abstractmethod
+    def predict(self, data: FitData) -> np.ndarray:
+        """The fitted part of the balance (``target``'s prediction) on ``data``'s rows."""
+
+    @abstractmethod
+    def structure(self) -> Structure:
+        """Its terms, with profiled parameters at their fitted values, as the loop refits them by
+        least squares (together with the rig's fitted terms)."""
+
+    def predict_interval(self, data: FitData) -> tuple[np.ndarray, np.ndarray] | None:
+        """A predictive band (lower, upper) on ``data``'s rows, for models that have one."""
+        return None
+
+    def report_extras(self, figures_dir: Path, prefix: str) -> Extras | None:
+        """Extra text, tables and figures for the report (e.g. MCMC diagnostics)."""
+        return None
+
+
+@dataclass(frozen=True)
+class Extras:
+    text: str
+    tables: list
+    figures: list
 
 
 @dataclass(frozen=True)
@@ -51,36 +106,19 @@ class Fitted:
 
     name: str
     family: str
-    model: Any  # has predict(X: DataFrame) -> ndarray
-    kind: str  # "one-step": force from measured x, v, P
+    model: FittedModel
+    kind: str  # "one-step": the explained quantity from measured signals at each sample
     fit_summary: Mapping[str, Any]
-    coefficients: pd.DataFrame  # value, std. error, CI, unit per term
+    coefficients: pd.DataFrame  # value, std. error, CI, unit per parameter
     equation: str
     notes: tuple[str, ...] = field(default_factory=tuple)
+    findings: tuple[SignFinding, ...] = field(default_factory=tuple)
 
     def predict(self, data: FitData) -> np.ndarray:
-        if hasattr(self.model, "predict_rows"):  # models with memory predict from sequences
-            return np.asarray(self.model.predict_rows(data), dtype=float)
-        return np.asarray(self.model.predict(data.X), dtype=float)
+        return np.asarray(self.model.predict(data), dtype=float)
 
     def predict_interval(self, data: FitData) -> tuple[np.ndarray, np.ndarray] | None:
-        """A predictive band (lower, upper) on ``data``'s rows, for families that have one."""
-        if hasattr(self.model, "predict_interval_rows"):
-            return self.model.predict_interval_rows(data)
-        return None
-
-
-@dataclass(frozen=True)
-class FitContext:
-    """What a family may need beyond its config: the experiment seed, a persistent folder (the
-    stage cache) for resumable work such as an MCMC chain, the rig's constants (M, m1, g) and the
-    identified friction (``friction.friction(v)`` in N), e.g. to build an equation of motion."""
-
-    seed: int
-    workdir: Path
-    rig: Any = None  # hmid.io.log.RigConstants
-    friction: Any = None  # hmid.friction.FrictionEstimate
-    force: bool = False  # --force: start resumable work afresh
+        return self.model.predict_interval(data)
 
 
 class FamilySpec(BaseModel):
@@ -88,7 +126,7 @@ class FamilySpec(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
     family: str
-    name_prefix: ClassVar[str] = ""
+    fills_slot: ClassVar[bool] = True  # models the rig's actuator force (its {kind: model})
 
     @classmethod
     def __pydantic_init_subclass__(cls, **kwargs):
@@ -97,7 +135,40 @@ class FamilySpec(BaseModel):
         if isinstance(default, str) and default:
             FAMILIES[default] = cls
 
-    def fit(self, train: FitData, context: FitContext) -> list[Fitted]:
+    @classmethod
+    def example(cls, rig: RigSection) -> FamilySpec:
+        """A cheap, valid instance for ``rig`` (for contract tests and documentation)."""
+        return cls()
+
+    def model_names(self) -> list[str]:
+        """Names of the models this entry fits (checked for clashes at load)."""
+        raise NotImplementedError
+
+    def check(self, rig: RigSection) -> None:
+        """ValueError (one line) if this family cannot model ``rig``'s balance."""
+        if self.fills_slot and rig.slot is None:
+            raise ValueError(
+                f"family {self.family!r} models an actuator force, but rig.balance has no "
+                "{kind: model} term for it to fill; add one, or fit the declared terms with "
+                "{family: balance}"
+            )
+        if self.fills_slot and rig.fitted:
+            names = [t.name for t in rig.fitted]
+            raise ValueError(
+                f"family {self.family!r} needs every other balance term known (a value, or "
+                f"from: free_fall), but {names} are to be fitted; fit them with {{family: "
+                "balance}, whose slot terms you declare"
+            )
+
+    def channels_needed(self, rig: RigSection, channels) -> None:
+        missing = [c for c in channels if c not in rig.model_channels]
+        if missing:
+            raise ValueError(
+                f"family {self.family!r} reads {missing}, which the rig does not give; its "
+                f"channels are {list(rig.model_channels)}"
+            )
+
+    def fit(self, data: FitData, context: FitContext) -> list[Fitted]:
         raise NotImplementedError
 
 

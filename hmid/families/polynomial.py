@@ -1,31 +1,39 @@
-"""The polynomial regression family of thesis Ch. 4: F_m as a polynomial in x, v (and P)."""
+"""The polynomial regression family of thesis Ch. 4: the actuator force as a polynomial in the
+rig's channels (x, v and P for the thesis's four variants), fitted by OLS to the slot's share
+of the balance."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Annotated, Literal
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from hmid.families.base import FamilySpec, FitContext, FitData, Fitted
+from hmid.balance import RigSection, Structure
+from hmid.balance.kinds import ChannelTerm, ConstantTerm
+from hmid.families.base import FamilySpec, FitContext, FitData, Fitted, FittedModel
 
 THESIS_VARIANTS = ("quadratic_xv", "cubic_xv", "quadratic_xvP", "cubic_xvP")
+Variable = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$")]
 
 
 class CustomTerms(BaseModel):
-    """Every monomial in ``variables`` up to total ``degree``, single variables capped by
-    ``max_degree`` (e.g. ``{P: 1}``: pressure only linearly, as in the thesis)."""
+    """Every monomial in ``variables`` (rig channels) up to total ``degree``, single variables
+    capped by ``max_degree`` (e.g. ``{P: 1}``: pressure only linearly, as in the thesis)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$")]
-    variables: tuple[Literal["x", "v", "P"], ...] = ("x", "v", "P")
+    variables: tuple[Variable, ...] = ("x", "v", "P")
     degree: Annotated[int, Field(ge=1, le=6)] = 3
-    max_degree: dict[Literal["x", "v", "P"], Annotated[int, Field(ge=0, le=6)]] = {"P": 1}
+    max_degree: dict[Variable, Annotated[int, Field(ge=0, le=6)]] = {"P": 1}
 
     def terms(self):
         from hmid.models.terms import polynomial_terms
 
-        return polynomial_terms(self.variables, self.degree, self.max_degree)
+        caps = {v: c for v, c in self.max_degree.items() if v in self.variables}
+        return polynomial_terms(self.variables, self.degree, caps)
 
 
 class PolynomialSpec(FamilySpec):
@@ -33,33 +41,52 @@ class PolynomialSpec(FamilySpec):
     every one fitted by OLS on the same training rows."""
 
     family: Literal["polynomial"] = "polynomial"
-    variants: Annotated[
-        tuple[Literal["quadratic_xv", "cubic_xv", "quadratic_xvP", "cubic_xvP"], ...],
-        Field(min_length=1),
-    ] = THESIS_VARIANTS
+    variants: tuple[Literal["quadratic_xv", "cubic_xv", "quadratic_xvP", "cubic_xvP"], ...] = (
+        THESIS_VARIANTS
+    )
     custom: tuple[CustomTerms, ...] = ()
     confidence: Annotated[float, Field(gt=0.5, lt=1)] = 0.95
     scale: bool = True
-    # "hac": Newey-West errors. Not the default: with slow periodic regressors and persistent
-    # residuals they were measured no closer to nominal coverage than OLS (and sometimes
-    # narrower); OLS intervals carry a Durbin-Watson warning instead.
+    # "hac": Newey-West errors. OLS intervals carry a Durbin-Watson warning instead.
     errors: Literal["ols", "hac"] = "ols"
 
-    def fit(self, train: FitData, context: FitContext) -> list[Fitted]:
+    def _term_sets(self):
+        from hmid.models.terms import variant_terms
+
+        sets = [(v, variant_terms(v)) for v in self.variants]
+        return sets + [(c.name, c.terms()) for c in self.custom]
+
+    def model_names(self) -> list[str]:
+        return [f"poly:{name}" for name, _ in self._term_sets()]
+
+    def check(self, rig: RigSection) -> None:
+        super().check(rig)
+        if not self.variants and not self.custom:
+            raise ValueError("give at least one of variants or custom")
+        for _, terms in self._term_sets():
+            self.channels_needed(rig, sorted({v for t in terms for v in t.variables}))
+
+    def fit(self, data: FitData, context: FitContext) -> list[Fitted]:
         from hmid.models.polynomial import PolynomialModel
 
+        units = dict(data.signals.units)
         fitted = []
-        term_sets = [(v, v) for v in self.variants] + [(c.name, c.terms()) for c in self.custom]
-        for variant, terms in term_sets:
+        for variant, terms in self._term_sets():
+            variables = tuple(sorted({v for t in terms for v in t.variables}))
             model = PolynomialModel(
-                terms=terms, confidence=self.confidence, scale=self.scale, errors=self.errors
+                terms=variant if variant in THESIS_VARIANTS else terms,
+                confidence=self.confidence,
+                scale=self.scale,
+                errors=self.errors,
+                units=units,
+                target_unit=units["target"],
             )
-            model.fit(train.X, train.y)
+            model.fit(data.frame(variables), data.slot_sign * data.y)
             fitted.append(
                 Fitted(
                     name=f"poly:{variant}",
                     family=self.family,
-                    model=model,
+                    model=FittedPolynomial(model, variables, data.slot_sign),
                     kind="one-step",
                     fit_summary=model.summary_.to_dict(),
                     coefficients=model.coefficient_table(),
@@ -68,3 +95,25 @@ class PolynomialSpec(FamilySpec):
                 )
             )
         return fitted
+
+
+@dataclass(frozen=True)
+class FittedPolynomial(FittedModel):
+    """An OLS polynomial of the slot force (``sign`` is the slot's sign in the balance)."""
+
+    model: object  # hmid.models.polynomial.PolynomialModel, fitted
+    variables: tuple[str, ...]
+    sign: int
+
+    def predict(self, data: FitData) -> np.ndarray:
+        return self.sign * self.model.predict(data.frame(self.variables))
+
+    def structure(self) -> Structure:
+        terms = []
+        for k, term in enumerate(self.model.term_set):
+            name = f"C{k}"
+            if term.powers:
+                terms.append(ChannelTerm(name=name, channel=term.name, sign=self.sign))
+            else:
+                terms.append(ConstantTerm(name=name, sign=self.sign))
+        return Structure.of(terms)

@@ -37,6 +37,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from hmid.balance import RigSection
 from hmid.errors import ConfigError
 from hmid.families.base import FamilySpec, FitContext, FitData, Fitted
 
@@ -163,14 +164,30 @@ class SINDySpec(FamilySpec):
             )
         return self
 
-    def fit(self, train: FitData, context: FitContext) -> list[Fitted]:
+    def model_names(self) -> list[str]:
+        return [f"sindy:{self.name}"]
+
+    def check(self, rig: RigSection) -> None:
+        super().check(rig)
+        self.channels_needed(rig, sorted({*self.variables, "v", "x"}))
+        if "P" not in rig.model_channels:
+            raise ValueError("family 'sindy' is driven by the pressure P, which the rig lacks")
+
+    def fit(self, data: FitData, context: FitContext) -> list[Fitted]:
+        from hmid.families._sindy_result import (
+            INTERVAL_CAVEAT,
+            VARIABLES,
+            SINDyResult,
+            sequences,
+            with_velocity,
+        )
         from hmid.models.sindy import EquationOfMotion, SINDyForceModel, free_run
-        from hmid.models.sindy._result import INTERVAL_CAVEAT, SINDyResult, with_velocity
 
         velocity = self.velocity.build()
-        frame = train.frame
+        whole = sequences(data.signals)
+        frame = data.frame(VARIABLES)
         if velocity is not None:
-            frame = with_velocity(frame, train.sequences, velocity)
+            frame = with_velocity(frame, whole, velocity)
         model = SINDyForceModel(
             variables=self.variables, degree=self.degree, max_degree=dict(self.max_degree),
             friction_term=self.friction_terms, v0=self.v0, stick_speed=self.stick_speed,
@@ -180,25 +197,23 @@ class SINDySpec(FamilySpec):
             block_seconds=self.ensemble.block_seconds, confidence=self.ensemble.confidence,
             seed=context.seed + self.seed_offset, name=self.name,
         )  # fmt: skip
-        model.fit(frame[["log", "t", "x", "v", "P"]], frame["F_m"].to_numpy())
+        model.fit(frame, data.slot_sign * data.y)
         notes = list(model.summary_.warnings)
-        eom, run = None, None
-        if self.free_run.enabled and train.sequences:
+        eom, run, skipped = None, None, "disabled in the config"
+        if self.free_run.enabled:
             try:
-                eom = EquationOfMotion.from_estimate(
-                    model.force_map(), context.rig, context.friction, self.v0
-                )
+                eom = EquationOfMotion.from_rig(model.force_map(), data.rig, context.friction,
+                                                self.v0)  # fmt: skip
             except ConfigError as err:
+                skipped = str(err)
                 notes.append(f"free run skipped: {err}")
             if eom is not None:
                 speeds = None
                 if velocity is not None:
-                    speeds = {
-                        n: velocity(s["t"].to_numpy(), s["x"].to_numpy())
-                        for n, s in train.sequences.items()
-                    }
+                    speeds = {n: velocity(s["t"].to_numpy(), s["x"].to_numpy())
+                              for n, s in whole.items()}  # fmt: skip
                 run = free_run(
-                    eom, train.sequences, substeps=self.free_run.substeps,
+                    eom, whole, substeps=self.free_run.substeps,
                     max_seconds=self.free_run.max_seconds, velocity=speeds,
                 )  # fmt: skip
                 notes.extend(
@@ -216,7 +231,8 @@ class SINDySpec(FamilySpec):
         if run is not None:
             summary |= {k: (None if isinstance(v, float) and not np.isfinite(v) else v)
                         for k, v in run.summary().items()}  # fmt: skip
-        result = SINDyResult(model, eom, run, velocity, self.velocity.label())
+        result = SINDyResult(model, eom, run, velocity, self.velocity.label(), data.slot_sign,
+                             skipped)  # fmt: skip
         return [
             Fitted(
                 name=f"sindy:{self.name}",

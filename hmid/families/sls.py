@@ -1,11 +1,16 @@
 """The Bayesian SLS family: physical muscle parameters with a posterior from emcee.
 
-F_m = A_eff P + F0 - (k1 x [+ k3 x^3] + sum_i q_i), dq_i/dt = -q_i/tau_i + k2_i dx/dt. The
-memory runs through every dynamic log whole, from measured x (piecewise linear) with q = 0 at
-each log start; the likelihood uses the training rows only, after ``memory_warmup_s`` of each
-log (the unknown history before a log starts has decayed by then). Predictions on held-out rows
-are one-step in the sense that they use the measured x and P (and the memory they imply), never
-the measured force.
+F_m = A_eff P + F0 - (k1 x [+ k3 x^3] + sum_i q_i), dq_i/dt = -q_i/tau_i + k2_i dx/dt, the
+force of the rig's model slot (x: the rig's position, P: its pressure channel). The memory runs
+through every segment whole, from measured x (piecewise linear) with q = 0 at each segment
+start; the likelihood uses the training rows only, after ``memory_warmup_s`` of each segment
+(the unknown history before it has decayed by then). Predictions on held-out rows are one-step
+in the sense that they use the measured x and P (and the memory they imply), never the measured
+force.
+
+The same structure fitted by least squares with tau profiled (unconstrained signs) checks the
+physical signs: a negative stiffness there means a reversed channel or a missing term, which the
+posterior (positive by construction) would only hide at the prior's edge.
 """
 
 from __future__ import annotations
@@ -19,17 +24,13 @@ import numpy as np
 import pandas as pd
 from pydantic import Field
 
-from hmid.families.base import FamilySpec, FitContext, FitData, Fitted
+from hmid.balance import RigSection, Structure
+from hmid.families.base import Extras, FamilySpec, FitContext, FitData, Fitted, FittedModel
 
 PREDICT_BATCH = 25  # posterior draws predicted at once for the band
 KIND = "one-step, with memory"  # force from measured x, P and the memory that x implies
-
-
-@dataclass(frozen=True)
-class Extras:
-    text: str
-    tables: list
-    figures: list
+#: tau grid of the least-squares structure (1 ms to 10 s, ratio 1.17 between points)
+TAU_GRID = {"min": 1e-3, "max": 10.0, "points": 60}
 
 
 class SLSSpec(FamilySpec):
@@ -39,6 +40,7 @@ class SLSSpec(FamilySpec):
     name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$")] = "sls"
     spring: Literal["linear", "cubic"] = "cubic"
     arms: Annotated[int, Field(ge=1, le=3)] = 1
+    pressure: str = "P"  # the rig's channel that drives the force as A_eff * pressure
     # "iid" by default: with structured misfit (e.g. noise in the measured x and P) an AR(1)
     # likelihood near phi = 1 fits differences and its posterior mode drifts (measured on the demo:
     # A_eff -15 %, held-out RMSE 0.31 N vs 0.05 N). Correlated residuals are flagged in the report
@@ -53,29 +55,94 @@ class SLSSpec(FamilySpec):
     confidence: Annotated[float, Field(gt=0.5, lt=1)] = 0.90
     predictive_draws: Annotated[int, Field(ge=20, le=2000)] = 200
 
-    def _segments(self, data: FitData, role: str) -> list[pd.DataFrame]:
+    @classmethod
+    def example(cls, rig: RigSection) -> SLSSpec:
+        return cls(stride=8, walkers=16, max_steps=300, predictive_draws=20)
+
+    def model_names(self) -> list[str]:
+        return [self.name if self.name == "sls" else f"sls:{self.name}"]
+
+    def check(self, rig: RigSection) -> None:
+        super().check(rig)
+        if rig.position is None:
+            raise ValueError("family 'sls' needs the rig's position (the elongation x)")
+        self.channels_needed(rig, [self.pressure])
+        if self.walkers % 2 or self.walkers < 2 * self.dimension:
+            raise ValueError(
+                f"walkers={self.walkers}: emcee's stretch move needs an even number of walkers, "
+                f"at least twice the {self.dimension} sampled coordinates; use "
+                f"{max(2 * self.dimension, self.walkers + self.walkers % 2)}"
+            )
+
+    @property
+    def dimension(self) -> int:
+        """Sampled coordinates: the force parameters, sigma, and phi when it may be AR(1)."""
+        spring = 4 if self.spring == "cubic" else 3
+        return spring + 2 * self.arms + 1 + (self.noise != "iid")
+
+    def structure(self, rig: RigSection, taus: tuple[float, ...] | None = None) -> Structure:
+        """The SLS as balance terms (sign of the slot built in), tau profiled on a grid."""
+        from hmid.balance.kinds import ChannelTerm, ConstantTerm, Grid, MemoryTerm
+
+        s, x = rig.slot.sign, rig.position
+        grid = Grid(**TAU_GRID)
+        terms = [
+            ChannelTerm(name="A_eff", channel=self.pressure, sign=s, positive=True),
+            ConstantTerm(name="F0", sign=s),
+            ChannelTerm(name="k1", channel=x, sign=-s, positive=True),
+        ]
+        if self.spring == "cubic":
+            terms.append(ChannelTerm(name="k3", channel=f"{x}^3", sign=-s, positive=True))
+        names = ["k2"] if self.arms == 1 else [f"k2_{i}" for i in range(1, self.arms + 1)]
+        for name in names:
+            terms.append(MemoryTerm(name=name, channel=x, sign=-s, positive=True, tau=grid,
+                                    warmup_s=self.memory_warmup_s))  # fmt: skip
+        values = {}
+        if taus is not None:
+            first = len(terms) - self.arms
+            values = {
+                first + i: float(np.clip(tau, grid.min, grid.max)) for i, tau in enumerate(taus)
+            }
+        return Structure.of(terms, values)
+
+    def _segments(self, data: FitData, role: str, stride: int | None = None) -> list[pd.DataFrame]:
+        signals, rig = data.signals, data.rig
+        frame = signals.frame
+        rows, target = signals.rows(role), data.slot_sign * signals.target
         segments = []
-        for seq in data.sequences.values():
-            seq = seq.iloc[:: self.stride]
-            warm = seq["t"] >= seq["t"].iloc[0] + self.memory_warmup_s
+        for index in signals.segments():
+            index = index[:: self.stride if stride is None else stride]
+            t = frame["t"].to_numpy()[index]
             segments.append(
                 pd.DataFrame(
                     {
-                        "t": seq["t"],
-                        "x": seq["x"],
-                        "P": seq["P"],
-                        "F": seq["F_m"],
-                        "use": seq[role].to_numpy() & warm.to_numpy(),
+                        "t": t,
+                        "x": frame[rig.position].to_numpy()[index],
+                        "P": frame[self.pressure].to_numpy()[index],
+                        "F": np.where(rows[index], target[index], np.nan),
+                        "use": rows[index] & (t >= t[0] + self.memory_warmup_s),
                     }
                 )
             )
         return segments
+
+    def _sign_check(self, data: FitData):
+        """Sign findings of the least-squares structure (tau profiled, signs free)."""
+        from hmid.balance import parameters, profile, residual_tau_int, sign_findings
+
+        structure = self.structure(data.rig)
+        signals = data.signals.trim(*structure.margins)
+        fitted = profile(structure, signals)
+        table = parameters(fitted, signals, residual_tau_int(fitted.residual, signals), 0.95)
+        reads = dict(zip(fitted.columns.names, fitted.columns.reads, strict=True))
+        return sign_findings(self.model_names()[0], table, reads, data.rig.position)
 
     def fit(self, train: FitData, context: FitContext) -> list[Fitted]:
         from hmid.models.base import fit_statistics
         from hmid.models.sls import SamplerConfig, SLSModel, initial_fit, run_sampler, sls_data
         from hmid.models.sls.diagnostics import lag1_autocorrelation, residuals_correlated
 
+        findings = self._sign_check(train)
         data = sls_data(self._segments(train, "train"))
         use = np.asarray(data.use)
         model = SLSModel(self.spring, self.arms, "iid")
@@ -118,7 +185,8 @@ class SLSSpec(FamilySpec):
             float(p_value),
             correlated,
             context.seed,
-            tuple(start.notes),
+            (*start.notes, *(f.message() for f in findings)),
+            train.rig,
         )
         prediction = model.predict(fitted.theta_median, data)[use]
         n_mean = model.space.dim - (2 if noise == "ar1" else 1)  # sigma (and phi) are noise
@@ -137,12 +205,13 @@ class SLSSpec(FamilySpec):
                 coefficients=table.reset_index(),
                 equation=fitted.equation(table),
                 notes=fitted.notes(),
+                findings=findings,
             )
         ]
 
 
 @dataclass(frozen=True)
-class SLSFitted:
+class SLSFitted(FittedModel):
     """A sampled SLS posterior that predicts on FitData rows (pickled by the stage cache)."""
 
     spec: SLSSpec
@@ -153,6 +222,15 @@ class SLSFitted:
     correlated: bool
     seed: int
     start_notes: tuple[str, ...]
+    rig: RigSection
+
+    def structure(self) -> Structure:
+        """The SLS terms at the posterior median's relaxation times."""
+        physical = self._physical(self.theta_median[None])
+        names = (
+            ["tau"] if self.spec.arms == 1 else [f"tau_{i}" for i in range(1, self.spec.arms + 1)]
+        )
+        return self.spec.structure(self.rig, tuple(float(physical[n][0]) for n in names))
 
     @property
     def model(self):
@@ -196,32 +274,19 @@ class SLSFitted:
 
     # -- predictions on pipeline rows ---------------------------------------------------------
     def _rows(self, data: FitData):
+        """Every sample (the recursion is exact at any rate; stride only eases sampling), and
+        the mask of the role's rows."""
         from hmid.models.sls import sls_data
 
-        seqs = list(data.sequences.values())
-        # prediction needs no forces: rows without one (held out from this set) are not "used"
-        full = sls_data(
-            [
-                pd.DataFrame(
-                    {
-                        "t": s["t"],
-                        "x": s["x"],
-                        "P": s["P"],
-                        "F": s["F_m"],
-                        "use": np.isfinite(s["F_m"].to_numpy()),
-                    }
-                )
-                for s in seqs
-            ]
-        )
-        rows = np.concatenate([s[data.role].to_numpy() for s in seqs])
-        return full, rows
+        frames = self.spec._segments(data, data.role, stride=1)
+        # prediction needs no forces: every row is "used", the role's rows are picked after
+        return sls_data([f.assign(F=0.0, use=True) for f in frames]), data.rows
 
-    def predict_rows(self, data: FitData) -> np.ndarray:
+    def predict(self, data: FitData) -> np.ndarray:
         full, rows = self._rows(data)
-        return self.model.predict(self.theta_median, full)[rows]
+        return data.slot_sign * self.model.predict(self.theta_median, full)[rows]
 
-    def predict_interval_rows(self, data: FitData) -> tuple[np.ndarray, np.ndarray]:
+    def predict_interval(self, data: FitData) -> tuple[np.ndarray, np.ndarray]:
         """Posterior predictive band: parameter draws plus the noise model's marginal spread."""
         full, rows = self._rows(data)
         rng = np.random.default_rng([self.seed, 5])
@@ -235,7 +300,7 @@ class SLSFitted:
             noisy[:, lo:hi] = self.model.predict(draws[lo:hi], full)[rows]
         noisy += rng.standard_normal(noisy.shape) * scale[None, :]
         tail = (1.0 - self.spec.confidence) / 2.0
-        lower, upper = np.quantile(noisy, [tail, 1.0 - tail], axis=1)
+        lower, upper = np.quantile(data.slot_sign * noisy, [tail, 1.0 - tail], axis=1)
         return lower, upper
 
     def report_extras(self, figures_dir: Path, prefix: str) -> Extras:

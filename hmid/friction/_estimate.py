@@ -9,8 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from hmid.friction._models import FrictionModel
-from hmid.io.log import RigConstants
+from hmid.friction._models import FallRig, FrictionModel
 
 Interval = tuple[float, float]
 
@@ -88,11 +87,11 @@ class FrictionEstimate:
     q_p: float  # NaN for a single log
     i2: float  # NaN for a single log
     confidence: float
-    rig: RigConstants
+    rig: FallRig
 
     @classmethod
     def known(
-        cls, model: FrictionModel, params: Mapping[str, float], rig: RigConstants
+        cls, model: FrictionModel, params: Mapping[str, float], rig: FallRig
     ) -> FrictionEstimate:
         """An estimate with exactly known parameters (zero-width intervals, no logs)."""
         values = {p: float(params[p]) for p in model.param_names}
@@ -120,7 +119,7 @@ class FrictionEstimate:
                 "ci": dict(self.ci),
                 "units": dict(self.units),
                 "heterogeneity": {"Q": self.q, "dof": self.q_dof, "p": self.q_p, "I2": self.i2},
-                "rig": {"M": self.rig.M, "m1": self.rig.m1, "g": self.rig.g},
+                "free_fall": {"mass": self.rig.mass, "drive": self.rig.drive},
                 "logs": [
                     {
                         "source": r.source,

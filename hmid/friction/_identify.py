@@ -11,8 +11,8 @@ from statsmodels.stats.stattools import durbin_watson
 
 from hmid.errors import ConfigError, LogError, SignalError
 from hmid.friction._estimate import FrictionEstimate, LoadCellCheck, LogFriction
-from hmid.friction._models import FrictionModel
-from hmid.io.log import Log, RigConstants
+from hmid.friction._models import FallRig, FrictionModel
+from hmid.io.log import Log
 from hmid.signal import Differentiator
 
 #: Fewest samples a sliding segment must keep after trimming.
@@ -21,12 +21,9 @@ MIN_SLIDING_SAMPLES = 30
 
 def derivative_reach(t: np.ndarray, differentiator: Differentiator) -> int:
     """Samples either side of i that the velocity estimate at i depends on (impulse response)."""
-    impulse = np.zeros(len(t))
-    mid = len(t) // 2
-    impulse[mid] = 1.0
-    response = np.abs(differentiator.derivative(t, impulse, 1))
-    support = np.flatnonzero(response > 1e-9 * response.max())
-    return int(max(mid - support[0], support[-1] - mid))
+    from hmid.signal.reach import impulse_reach
+
+    return impulse_reach(t, lambda t, y: differentiator.derivative(t, y, 1))
 
 
 def sliding_segment(v: np.ndarray, v_min: float, reach: int) -> tuple[int, int]:
@@ -56,8 +53,9 @@ def _interval(value: float, se: float, quantile: float) -> tuple[float, float]:
     return (float(value - quantile * se), float(value + quantile * se))
 
 
-def _load_cell_check(F, v, direction, model, reach, confidence) -> LoadCellCheck:
-    """OLS of the friction magnitude ``-s F_l`` on the model's load-cell design.
+def _load_cell_check(F, v, direction, model, reach, confidence, sign) -> LoadCellCheck:
+    """OLS of the friction magnitude ``sign s F`` on the model's load-cell design (``sign``: how
+    friction enters the force reading, -1 for a load cell behind it: F_l = -friction).
 
     A design built from the estimated velocity inherits its errors, which the derivative's window
     correlates over ``2 reach + 1`` samples: the covariance is then Newey-West (HAC) with that
@@ -67,7 +65,7 @@ def _load_cell_check(F, v, direction, model, reach, confidence) -> LoadCellCheck
     """
     design = model.load_cell_design(np.abs(v))
     uses_velocity = bool(np.any(np.ptp(design, axis=0) > 0))
-    ols = sm.OLS(-direction * F, design)
+    ols = sm.OLS(sign * direction * F, design)
     fitted = (
         ols.fit(cov_type="HAC", cov_kwds={"maxlags": 2 * reach + 1}, use_t=True)
         if uses_velocity
@@ -81,21 +79,24 @@ def _load_cell_check(F, v, direction, model, reach, confidence) -> LoadCellCheck
     )
 
 
-def _fit_log(log, rig, model, differentiator, v_min, confidence) -> tuple[LogFriction, np.ndarray]:
-    if "x" not in log:
-        raise LogError(f"{log.source}: a free-fall log needs the position channel 'x'")
-    t, x = log.t, log["x"]
+def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign, force):
+    # position: the position channel; sign: how friction enters the force channel ``force``
+    if position not in log:
+        raise LogError(f"{log.source}: a free-fall log needs the position channel {position!r}")
+    t, x = log.t, log[position]
     bad = ~np.isfinite(x)
     if bad.any():
         raise LogError(
-            f"{log.source}: friction: column 'x' row {int(np.argmax(bad))} is not finite; "
-            "drop or interpolate bad samples when loading"
+            f"{log.source}: friction: column {position!r} row {int(np.argmax(bad))} is not "
+            "finite; drop or interpolate bad samples when loading"
         )
     try:
         v = differentiator.derivative(t, x, 1)
         reach = derivative_reach(t, differentiator)
     except SignalError as err:
-        raise LogError(f"{log.source}: friction: differentiating x failed: {err}") from None
+        raise LogError(
+            f"{log.source}: friction: differentiating {position} failed: {err}"
+        ) from None
     i0, i1 = sliding_segment(v, v_min, reach)
     n = i1 - i0
     if n < MIN_SLIDING_SAMPLES:
@@ -124,8 +125,10 @@ def _fit_log(log, rig, model, differentiator, v_min, confidence) -> tuple[LogFri
     resid = u - fit.fitted
     sst = np.sum((u - u.mean()) ** 2)
     load_cell = None
-    if "F" in log:
-        load_cell = _load_cell_check(log["F"][seg], v[seg], direction, model, reach, confidence)
+    if force is not None and force in log:
+        load_cell = _load_cell_check(
+            log[force][seg], v[seg], direction, model, reach, confidence, sign
+        )
     result = LogFriction(
         source=log.source,
         params=dict(fit.params),
@@ -158,37 +161,41 @@ def _pool(thetas: list[np.ndarray], covs: list[np.ndarray]):
 
 def identify_friction(
     logs: Sequence[Log],
-    rig: RigConstants,
+    rig: FallRig,
     model: FrictionModel,
     *,
     differentiator: Differentiator,
     v_min: float = 0.02,
     confidence: float = 0.95,
+    position: str = "x",
+    friction_sign: int = -1,
+    explained: str | None = "F",
 ) -> FrictionEstimate:
-    """Friction of the rig from free-fall logs (muscle disconnected; channels ``x``, opt. ``F``).
+    """Friction of the rig from free-fall logs (actuator disconnected; the ``position`` channel,
+    optionally the force channel ``explained``).
 
-    Per log: velocity from ``differentiator`` on the raw ``x``; the sliding segment is the
+    Per log: velocity from ``differentiator`` on the raw position; the sliding segment is the
     longest run with ``|v| > v_min``, trimmed at stick/slide transitions by the derivative's
-    reach; ``model`` is fitted to x(t) there (see :mod:`hmid.friction._models`), giving the
-    parameters with Student-t intervals. The logs are pooled by inverse-covariance weighting,
-    with Cochran's Q for their agreement. Masses come from ``rig`` and are taken as exact.
+    reach; ``model`` is fitted to the position there (see :mod:`hmid.friction._models`), giving
+    the parameters with Student-t intervals. The logs are pooled by inverse-covariance
+    weighting, with Cochran's Q for their agreement. The fall's mass and drive are taken as
+    exact. A force channel, where the log has it, gives an independent cross-check: in a free
+    fall it reads the friction alone, entering with ``friction_sign``.
     """
     if not isinstance(model, FrictionModel):
         raise ConfigError(f"friction model must be a FrictionModel, got {model!r}")
     if not isinstance(differentiator, Differentiator):
         raise ConfigError(f"differentiator must be a Differentiator, got {differentiator!r}")
-    if rig.M is None or rig.m1 is None:
-        raise ConfigError(
-            f"rig: friction needs the block mass M and the hanging mass m1, got M={rig.M}, "
-            f"m1={rig.m1}; set rig: {{M: ..., m1: ...}} in the experiment config"
-        )
+    if not isinstance(rig, FallRig):
+        raise ConfigError(f"friction needs the free fall's mass and drive (a FallRig), got {rig!r}")
     if not (np.isfinite(v_min) and v_min > 0):
         raise ConfigError(f"friction.v_min={v_min!r} must be a positive speed in m/s")
     if not 0 < confidence < 1:
         raise ConfigError(f"friction.confidence={confidence!r} must lie in (0, 1)")
     if len(logs) == 0:
         raise LogError("friction: no free-fall logs given; add logs with role 'free_fall'")
-    fits = [_fit_log(log, rig, model, differentiator, v_min, confidence) for log in logs]
+    settings = (v_min, confidence, position, friction_sign, explained)
+    fits = [_fit_log(log, rig, model, differentiator, *settings) for log in logs]
     names = model.param_names
     thetas = [np.array([r.params[p] for p in names]) for r, _ in fits]
     mean, cov, q, dof = _pool(thetas, [c for _, c in fits])

@@ -1,10 +1,10 @@
 """Friction models: small frozen strategies that evaluate friction(v) and fit a free fall.
 
 A free fall is fitted in the *travel frame* ``u = s x`` (``s = ±1``, the direction the block
-slides), where the hanging weight drives the block and friction opposes it (thesis eq. 4.1 with
-the muscle disconnected, ``F_m = 0``):
+slides), where a known drive pulls the moving mass and friction opposes it (thesis eq. 4.1 with
+the muscle disconnected: drive m1 g, mass M + m1; see :class:`FallRig`):
 
-    (M + m1) u'' = m1 g - Fc - b u'        (b = 0 for pure Coulomb friction)
+    mass u'' = drive - Fc - b u'        (b = 0 for pure Coulomb friction)
 
 so each model only sees a monotone, accelerating travel ``u(tau)`` on the sliding segment, with
 ``tau = t - t_ref`` centred on the segment. Both models fit positions, never estimated
@@ -28,7 +28,20 @@ import numpy as np
 import statsmodels.api as sm
 from scipy.optimize import curve_fit
 
-from hmid.io.log import RigConstants
+
+@dataclass(frozen=True)
+class FallRig:
+    """A free-fall test: the ``drive`` force [N] (the hanging weight m1 g on the Ch. 4 rig)
+    drags the moving ``mass`` [kg] (M + m1), and friction alone opposes it."""
+
+    mass: float
+    drive: float
+
+    def __post_init__(self) -> None:
+        for name in ("mass", "drive"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"free-fall {name}={value!r} must be a positive finite number")
 
 
 @dataclass(frozen=True)
@@ -56,12 +69,12 @@ class FrictionModel(abc.ABC):
         """Friction force (N) at velocity ``v`` (m/s); its sign follows ``v``."""
 
     @abc.abstractmethod
-    def fit_fall(self, tau: np.ndarray, u: np.ndarray, rig: RigConstants) -> FallFit:
+    def fit_fall(self, tau: np.ndarray, u: np.ndarray, rig: FallRig) -> FallFit:
         """Least-squares fit of the travel ``u`` (m) at times ``tau`` (s, centred)."""
 
     @abc.abstractmethod
     def travel(
-        self, tau: np.ndarray, u0: float, w0: float, params: Mapping[str, float], rig: RigConstants
+        self, tau: np.ndarray, u0: float, w0: float, params: Mapping[str, float], rig: FallRig
     ) -> np.ndarray:
         """Travel (m) predicted at ``tau`` from ``u0``, ``w0`` at tau = 0 and the parameters."""
 
@@ -70,8 +83,8 @@ class FrictionModel(abc.ABC):
         """Regressors (n x p) such that the friction magnitude at ``speed`` = design @ params."""
 
 
-def _mass(rig: RigConstants) -> float:
-    return rig.M + rig.m1
+def _mass(rig: FallRig) -> float:
+    return rig.mass
 
 
 @dataclass(frozen=True)
@@ -79,7 +92,7 @@ class Coulomb(FrictionModel):
     """Coulomb friction (thesis Ch. 4): ``friction(v) = sign(v) Fc``.
 
     Free fall: constant acceleration, ``u = u0 + w0 tau + a tau^2 / 2`` fitted by statsmodels OLS;
-    ``Fc = m1 g - (M + m1) a``, with the OLS standard error of ``a`` scaled by ``M + m1``.
+    ``Fc = drive - mass a``, with the OLS standard error of ``a`` scaled by the mass.
     """
 
     name: ClassVar[str] = "coulomb"
@@ -93,7 +106,7 @@ class Coulomb(FrictionModel):
         design = np.column_stack([np.ones_like(tau), tau, 0.5 * tau**2])
         ols = sm.OLS(u, design).fit()
         mass = _mass(rig)
-        Fc = rig.m1 * rig.g - mass * ols.params[2]
+        Fc = rig.drive - mass * ols.params[2]
         cov = np.array([[mass**2 * ols.bse[2] ** 2]])
         return FallFit(
             {"Fc": float(Fc)}, cov, float(ols.params[0]), float(ols.params[1]),
@@ -101,7 +114,7 @@ class Coulomb(FrictionModel):
         )  # fmt: skip
 
     def travel(self, tau, u0, w0, params, rig):
-        a = (rig.m1 * rig.g - params["Fc"]) / _mass(rig)
+        a = (rig.drive - params["Fc"]) / _mass(rig)
         return u0 + w0 * tau + 0.5 * a * tau**2
 
     def load_cell_design(self, speed):
@@ -144,7 +157,7 @@ def _phi(z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 class CoulombViscous(FrictionModel):
     """Coulomb plus viscous friction: ``friction(v) = sign(v) Fc + b v``.
 
-    Free fall: ``u'' = alpha - k u'`` with ``alpha = (m1 g - Fc)/(M + m1)``, ``k = b/(M + m1)``,
+    Free fall: ``u'' = alpha - k u'`` with ``alpha = (drive - Fc)/mass``, ``k = b/mass``,
     solved exactly, ``u = u0 + w0 tau phi1(k tau) + alpha tau^2 phi2(k tau)``, and fitted by
     nonlinear least squares (:func:`scipy.optimize.curve_fit`, Levenberg-Marquardt, analytic
     Jacobian, started from the Coulomb fit). The covariance is the usual asymptotic one scaled by
@@ -161,7 +174,7 @@ class CoulombViscous(FrictionModel):
         return np.sign(v) * params["Fc"] + params["b"] * v
 
     def _curve(self, rig):
-        mass, drive = _mass(rig), rig.m1 * rig.g
+        mass, drive = _mass(rig), rig.drive
 
         def model(tau, u0, w0, Fc, b):
             p1, p2, _, _ = _phi(b / mass * tau)

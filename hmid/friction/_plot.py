@@ -10,7 +10,9 @@ from hmid.friction._estimate import FrictionEstimate
 from hmid.io.log import Log
 
 
-def plot_free_fall(logs: Sequence[Log], estimate: FrictionEstimate, path: str | Path) -> Path:
+def plot_free_fall(
+    logs: Sequence[Log], estimate: FrictionEstimate, path: str | Path, position: str = "x"
+) -> Path:
     """Write the figure to ``path`` (format from its suffix) and return the path.
 
     Top: each log's measured x (dots) and its own fitted model over the sliding segment (line).
@@ -25,7 +27,7 @@ def plot_free_fall(logs: Sequence[Log], estimate: FrictionEstimate, path: str | 
         if log.source not in fits:
             raise LogError(f"{log.source}: not among the logs this friction estimate was fitted to")
         r = fits[log.source]
-        t, x = log.t, log["x"]
+        t, x = log.t, log[position]
         seg = (t >= r.t_start) & (t <= r.t_end)
         tau = t[seg] - r.t_ref
         u = estimate.model.travel(
@@ -39,7 +41,7 @@ def plot_free_fall(logs: Sequence[Log], estimate: FrictionEstimate, path: str | 
         ax_x.plot(t, x * 1e3, ".", ms=2, color=colour, alpha=0.4)
         ax_x.plot(t[seg], x_fit * 1e3, "-", color=colour, label=f"{log.source}: {label}")
         ax_r.plot(t[seg], (x[seg] - x_fit) * 1e3, ".", ms=2, color=colour)
-    ax_x.set_ylabel("x [mm]")
+    ax_x.set_ylabel(f"{position} [mm]")
     ax_x.set_title(f"Free-fall friction fits ({estimate.model.name})")
     ax_x.legend(fontsize="small")
     ax_r.axhline(0.0, color="k", lw=0.8)

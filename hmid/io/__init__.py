@@ -2,7 +2,7 @@
 
 from hmid._messages import format_validation_error
 from hmid.io.columns import ChannelSpec, ColumnMap, load_column_map
-from hmid.io.log import CANONICAL_UNITS, Log, RigConstants
+from hmid.io.log import CANONICAL_UNITS, Log
 from hmid.io.read import log_from_frame, read_log
 from hmid.io.units import si_unit, to_si, unit_registry
 
@@ -11,7 +11,6 @@ __all__ = [
     "ChannelSpec",
     "ColumnMap",
     "Log",
-    "RigConstants",
     "format_validation_error",
     "load_column_map",
     "log_from_frame",

@@ -2,7 +2,7 @@
 
 A log is a time column ``t`` plus named channels (``P``, ``x``, ``F``, optional ``a``, ``v``, and
 any others), all float64 in SI units, with the metadata needed to interpret it: where it came from,
-the rig's constants, and non-fatal findings from validation (``flags``). Logs are immutable:
+and non-fatal findings from validation (``flags``). Logs are immutable:
 methods that change data return a new log.
 """
 
@@ -30,21 +30,6 @@ CANONICAL_UNITS: Mapping[str, str] = MappingProxyType(
 )
 
 
-@dataclass(frozen=True)
-class RigConstants:
-    """Constants of the Ch. 4 test rig that a log was recorded on (SI units)."""
-
-    M: float | None = None  # block (+ force plate) mass, kg
-    m1: float | None = None  # hanging mass, kg
-    g: float = 9.80665  # gravitational acceleration, m/s^2
-
-    def __post_init__(self) -> None:
-        for name in ("M", "m1", "g"):
-            value = getattr(self, name)
-            if value is not None and not (np.isfinite(value) and value > 0):
-                raise LogError(f"rig constant {name}={value!r} must be a positive finite number")
-
-
 @dataclass(frozen=True, eq=False)
 class Log:
     """A validated rig log: ``data`` holds ``t`` and the channels, float64, SI units."""
@@ -52,7 +37,6 @@ class Log:
     data: pd.DataFrame
     source: str = "<memory>"
     units: Mapping[str, str] = field(default_factory=dict)
-    rig: RigConstants = field(default_factory=RigConstants)
     flags: tuple[str, ...] = ()
     meta: Mapping[str, object] = field(default_factory=dict)
 
@@ -127,13 +111,13 @@ class Log:
                 )
             frame[name] = values
         merged = dict(self.units) | dict(units or {})
-        return Log(frame, self.source, merged, self.rig, self.flags, self.meta)
+        return Log(frame, self.source, merged, self.flags, self.meta)
 
     def between(self, t0: float, t1: float) -> Log:
         """The samples with ``t0 <= t <= t1`` as a new log."""
         t = self.data["t"].to_numpy()
         frame = self.data.loc[(t >= t0) & (t <= t1)]
-        return Log(frame, self.source, self.units, self.rig, self.flags, self.meta)
+        return Log(frame, self.source, self.units, self.flags, self.meta)
 
     def to_frame(self) -> pd.DataFrame:
         """A copy of the data as a DataFrame (SI units)."""

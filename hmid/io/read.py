@@ -20,7 +20,7 @@ import pandas as pd
 
 from hmid.errors import HmidWarning, LogError
 from hmid.io.columns import ColumnMap
-from hmid.io.log import Log, RigConstants
+from hmid.io.log import Log
 from hmid.io.units import to_si
 from hmid.io.validate import (
     Place,
@@ -45,7 +45,6 @@ def read_log(
     path: str | Path,
     columns: ColumnMap,
     *,
-    rig: RigConstants | None = None,
     min_samples: int | None = None,
 ) -> Log:
     """Load a CSV (any delimiter, header or not) or Parquet (``.parquet``/``.pq``) log.
@@ -68,7 +67,7 @@ def read_log(
         frame, sep = _parse_csv(data, columns, source)
         meta |= {"format": "csv", "delimiter": "whitespace" if sep == _WHITESPACE else sep}
         place = Place(source, _line_locator(data, columns))
-    return _build(frame, columns, place, rig, min_samples, meta)
+    return _build(frame, columns, place, min_samples, meta)
 
 
 def log_from_frame(
@@ -76,7 +75,6 @@ def log_from_frame(
     columns: ColumnMap,
     *,
     source: str = "<memory>",
-    rig: RigConstants | None = None,
     min_samples: int | None = None,
 ) -> Log:
     """Validate an in-memory table (e.g. from the simulator) exactly as :func:`read_log` does.
@@ -93,14 +91,13 @@ def log_from_frame(
         return f"row {row + 1} (index {label.item() if isinstance(label, np.generic) else label!r})"
 
     place = Place(source, locate)
-    return _build(frame, columns, place, rig, min_samples, {"format": "frame"})
+    return _build(frame, columns, place, min_samples, {"format": "frame"})
 
 
 def _build(
     frame: pd.DataFrame,
     columns: ColumnMap,
     place: Place,
-    rig: RigConstants | None,
     min_samples: int | None,
     meta: Mapping[str, object],
 ) -> Log:
@@ -134,7 +131,6 @@ def _build(
         pd.DataFrame(si, columns=order),
         source=place.source,
         units=units,
-        rig=rig if rig is not None else RigConstants(),
         flags=tuple(flags),
         meta=meta,
     )

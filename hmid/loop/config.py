@@ -1,4 +1,5 @@
-"""The ``loop:`` section of an experiment: base model, candidate library and acceptance rule."""
+"""The ``loop:`` section of an experiment: which fitted model to diagnose, the candidate library
+and the acceptance rule."""
 
 from __future__ import annotations
 
@@ -6,22 +7,16 @@ from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from hmid.loop.bases import BaseSpec, SLSBase
-from hmid.loop.candidates import CANDIDATES
-
-DEFAULT_CANDIDATES = (
-    "viscous",
-    "stribeck",
-    "pressure_friction",
-    "hysteresis",
-    "pressure_lag",
-    "stiffness_drift",
-    "force_zero_drift",
-)
+from hmid.loop.candidates import CANDIDATES, Setting
 
 
 class LoopSpec(BaseModel):
     """Close the loop: residual diagnostics, candidate effects, ranking and held-out confirmation.
+
+    ``base`` names a model of the experiment's ``models`` (e.g. ``sls``, ``poly:cubic_xvP``,
+    ``balance``): its fit is the "before", and its terms are refitted by least squares with each
+    candidate added. ``candidates`` defaults to every library effect the rig can show (those
+    reading a channel the rig lacks are left out).
 
     Rule: a candidate passes on training data when its extra-sum-of-squares F-test (on the
     effective sample size) is significant at ``alpha`` after Holm's correction over the round's
@@ -35,8 +30,8 @@ class LoopSpec(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
-    base: BaseSpec = SLSBase()
-    candidates: tuple[str, ...] = DEFAULT_CANDIDATES
+    base: Annotated[str, Field(min_length=1)]
+    candidates: tuple[str, ...] | None = None
     alpha: Annotated[float, Field(gt=0, lt=0.5)] = 0.01
     margin: Annotated[float, Field(ge=0, lt=1)] = 0.03
     max_effects: Annotated[int, Field(ge=0, le=10)] = 3
@@ -49,9 +44,27 @@ class LoopSpec(BaseModel):
     @field_validator("candidates")
     @classmethod
     def _known(cls, names):
+        if names is None:
+            return names
         unknown = [n for n in names if n not in CANDIDATES]
         if unknown:
             raise ValueError(f"unknown candidate effect(s) {unknown}; known: {sorted(CANDIDATES)}")
         if len(set(names)) != len(names):
             raise ValueError("candidate effects are listed twice")
         return names
+
+    def check(self, rig, model_names: list[str]) -> None:
+        """ValueError (one line) if the base is no model or a listed candidate cannot apply."""
+        if self.base not in model_names:
+            raise ValueError(f"loop.base {self.base!r} is none of the models {model_names}")
+        setting = Setting.of(rig)
+        for name in self.candidates or ():
+            why = CANDIDATES[name].missing(setting)
+            if why:
+                raise ValueError(f"loop.candidates: {name!r} {why}; leave it out")
+
+    def candidate_names(self, setting: Setting) -> tuple[str, ...]:
+        """The candidates to test: the listed ones, or every one the rig supports."""
+        if self.candidates is not None:
+            return self.candidates
+        return tuple(name for name, cls in CANDIDATES.items() if cls.missing(setting) is None)

@@ -2,7 +2,8 @@
 nonlinear dependence on the signals (which linear tests miss).
 
 * autocorrelation to ``max_lag_s`` with the 99 % bound of a white residual, +-2.576/sqrt(n);
-* cross-correlation with x, v and P over +-``max_lag_s``;
+* cross-correlation with the rig's channels (position, velocity, the others) over
+  +-``max_lag_s``;
 * Ljung-Box (statsmodels) on the residual decimated to ``stride_s`` (the smoothing filters
   correlate neighbouring samples by construction; past their reach a white residual is white);
 * structure scan: for each signal, the residual's conditional mean in quantile bins (split by the
@@ -20,8 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from hmid.loop.data import LoopData
-from hmid.loop.statistics import autocorrelation, integrated_time, masked_series
+from hmid.balance import Signals
+from hmid.balance.statistics import autocorrelation, integrated_time, lag_count, masked_series
 
 N_BINS = 24
 N_BINS_TIME = 6  # coarser than a fold block, so every time bin is seen by the other folds
@@ -29,20 +30,42 @@ FOLDS = 4
 FOLD_BLOCK_S = 0.5  # folds interleave blocks of this length
 
 
-def signals(data: LoopData) -> dict[str, np.ndarray]:
-    """The signals a residual is scanned against. dP/dt is a Savitzky-Golay derivative over
-    ~50 ms per segment: a 10-bit pressure differenced at 1 kHz is mostly quantisation steps."""
+def inputs(data: Signals) -> dict[str, np.ndarray]:
+    """The channels a residual is correlated with: the position, its velocity, the others."""
+    names = [data.position, "v"] if data.position is not None else []
+    names += [c for c in data.channels if c not in ("v", "a") and c != data.position]
+    return {name: data[name] for name in names}
+
+
+def signals(data: Signals) -> dict[str, np.ndarray]:
+    """The signals a residual is scanned against: :func:`inputs`, the rate of change of each
+    input other than the position and its velocity (a Savitzky-Golay derivative over ~50 ms per
+    segment: a 10-bit pressure differenced at 1 kHz is mostly quantisation steps), and t."""
     from scipy.signal import savgol_filter
 
-    P, t, dP = data["P"], data["t"], np.empty(len(data))
+    out = inputs(data)
+    t = data["t"]
     window = lag_count(data, 0.05, 5) | 1
-    for rows in data.segments():
-        dt = float(np.median(np.diff(t[rows]))) if len(rows) > 1 else 1.0
-        if len(rows) > window:
-            dP[rows] = savgol_filter(P[rows], window, 2, deriv=1, delta=dt)
-        else:
-            dP[rows] = np.gradient(P[rows], t[rows]) if len(rows) > 1 else 0.0
-    return {"x": data["x"], "v": data["v"], "P": P, "dP/dt": dP, "t": t}
+    for name in [n for n in out if n not in (data.position, "v")]:
+        values, rate = out[name], np.empty(len(data))
+        for rows in data.segments():
+            dt = float(np.median(np.diff(t[rows]))) if len(rows) > 1 else 1.0
+            if len(rows) > window:
+                rate[rows] = savgol_filter(values[rows], window, 2, deriv=1, delta=dt)
+            else:
+                rate[rows] = np.gradient(values[rows], t[rows]) if len(rows) > 1 else 0.0
+        out[f"d{name}/dt"] = rate
+    out["t"] = t
+    return out
+
+
+def unit(data: Signals, name: str) -> str:
+    """SI unit of a scanned signal (``dP/dt`` is the unit of P per second)."""
+    if name == "t":
+        return "s"
+    if name.startswith("d") and name.endswith("/dt"):
+        return f"{data.unit(name[1:-3])}/s"
+    return data.unit(name)
 
 
 @dataclass(frozen=True)
@@ -53,21 +76,15 @@ class Diagnostics:
     tau_int: float  # integrated autocorrelation time, samples
     ljung_box_p: float
     ljung_box_n: int
-    ccf: pd.DataFrame  # index lag [s], columns x, v, P
+    ccf: pd.DataFrame  # index lag [s], a column per input
     structure: pd.DataFrame  # signal -> eta² (cross-fitted), binned means for plots
-    spectrum: tuple[np.ndarray, np.ndarray]  # frequency [Hz], PSD [N²/Hz]
+    spectrum: tuple[np.ndarray, np.ndarray]  # frequency [Hz], PSD [unit²/Hz]
     rms: float
 
     @property
     def strongest(self) -> tuple[str, float]:
         row = self.structure["eta2"].idxmax()
         return str(row), float(self.structure.loc[row, "eta2"])
-
-
-def lag_count(data: LoopData, seconds: float, minimum: int = 2) -> int:
-    """``seconds`` in samples at the median step of the first segment's start."""
-    dt = float(np.median(np.diff(data["t"][:1000]))) if len(data) > 1 else 1.0
-    return max(round(seconds / dt), minimum)
 
 
 def _ccf(residual, rows, data, inputs, lags) -> pd.DataFrame:
@@ -84,12 +101,12 @@ def _ccf(residual, rows, data, inputs, lags) -> pd.DataFrame:
     return pd.DataFrame(out, index=pd.Index(lags, name="lag"))
 
 
-def _folds(data: LoopData) -> np.ndarray:
+def _folds(data: Signals) -> np.ndarray:
     """Interleaved time blocks, so every fold spans the whole log (drifts included)."""
     return (np.floor(data["t"] / FOLD_BLOCK_S).astype(int) + data["segment"]) % FOLDS
 
 
-def structure_scan(residual: np.ndarray, rows: np.ndarray, data: LoopData) -> pd.DataFrame:
+def structure_scan(residual: np.ndarray, rows: np.ndarray, data: Signals) -> pd.DataFrame:
     """Cross-fitted eta² of the residual on each signal (binned, split by direction)."""
     direction = (data["v"] >= 0).astype(int)
     fold = _folds(data)[rows]
@@ -114,7 +131,7 @@ def structure_scan(residual: np.ndarray, rows: np.ndarray, data: LoopData) -> pd
 
 
 def binned_mean(
-    residual: np.ndarray, rows: np.ndarray, values: np.ndarray, data: LoopData
+    residual: np.ndarray, rows: np.ndarray, values: np.ndarray, data: Signals
 ) -> pd.DataFrame:
     """Residual mean per quantile bin of ``values``, per direction (for plots)."""
     edges = np.unique(np.quantile(values[rows], np.linspace(0, 1, N_BINS + 1)))
@@ -148,7 +165,7 @@ def _spectrum(series: np.ndarray, dt: float, nperseg: int = 1024):
 
 
 def diagnose(
-    residual: np.ndarray, data: LoopData, *, max_lag_s: float = 0.5, stride_s: float = 0.05
+    residual: np.ndarray, data: Signals, *, max_lag_s: float = 0.5, stride_s: float = 0.05
 ) -> Diagnostics:
     """All diagnostics of ``residual`` (every row of ``data``) on its training rows."""
     from statsmodels.stats.diagnostic import acorr_ljungbox
@@ -162,7 +179,7 @@ def diagnose(
     decimated = decimated[np.isfinite(decimated)]
     lb = acorr_ljungbox(decimated, lags=[min(20, len(decimated) // 5)])
     lags = np.unique(np.linspace(-nlags, nlags, 41).round().astype(int))
-    ccf = _ccf(residual, rows, data, {k: data[k] for k in ("x", "v", "P")}, lags)
+    ccf = _ccf(residual, rows, data, inputs(data), lags)
     ccf.index = ccf.index * dt
     freq, psd = _spectrum(masked_series(residual, rows, data, 1), dt)
     return Diagnostics(
@@ -177,9 +194,3 @@ def diagnose(
         spectrum=(freq, psd),
         rms=float(np.sqrt(np.mean(residual[rows] ** 2))),
     )
-
-
-def residual_tau_int(residual: np.ndarray, data: LoopData) -> float:
-    """Integrated autocorrelation time of the training residual, with lags up to 10 s."""
-    nlags = min(lag_count(data, 10.0), max(int(data.train.sum()) // 20, 2))
-    return integrated_time(autocorrelation(residual, data.train, data, nlags))

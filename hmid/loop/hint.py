@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from hmid.loop.data import LoopData
-from hmid.loop.diagnostics import signals
+from hmid.balance import Signals
+from hmid.loop.diagnostics import signals, unit
 
 MAX_TERMS = 6
 
@@ -27,7 +27,7 @@ class Hint:
     periodic: str = ""  # a dominant period of the residual along its strongest signal
 
 
-def library(data: LoopData) -> pd.DataFrame:
+def library(data: Signals) -> pd.DataFrame:
     """Generic features on standardised signals: monomials to degree 2, each also times
     sign(v), and t; nothing tied to a candidate effect."""
     raw = signals(data)
@@ -38,14 +38,14 @@ def library(data: LoopData) -> pd.DataFrame:
         feats[a] = z[a]
         for b in names[i:]:
             feats[f"{a}·{b}" if a != b else f"{a}²"] = z[a] * z[b]
-    s = np.sign(raw["v"])
+    s = np.sign(raw["v"]) if "v" in raw else np.ones(len(data))
     for key in list(feats):
         if key != "t":
             feats[f"sign(v)·{key}" if key != "1" else "sign(v)"] = s * feats[key]
     return pd.DataFrame(feats)
 
 
-def sparse_hint(residual: np.ndarray, data: LoopData, signal: str | None = None) -> Hint:
+def sparse_hint(residual: np.ndarray, data: Signals, signal: str | None = None) -> Hint:
     """Orthogonal matching pursuit (scikit-learn) with 1..MAX_TERMS terms, fitted on the training
     rows; the size with the best held-out share of residual variance is kept. (Thresholded least
     squares such as STLSQ jumps from many terms to none on this collinear library.) With
@@ -68,16 +68,16 @@ def sparse_hint(residual: np.ndarray, data: LoopData, signal: str | None = None)
     r2, coef = best
     used = np.flatnonzero(coef)
     order = used[np.argsort(-np.abs(coef[used]))]
-    terms = pd.DataFrame({"term": X.columns[order], "coefficient [N]": coef[order]})
+    terms = pd.DataFrame({"term": X.columns[order], "coefficient": coef[order]})
     return Hint(terms.reset_index(drop=True), float(r2), periodic)
 
 
-UNITS = {"x": ("mm", 1e3), "v": ("mm/s", 1e3), "P": ("kPa", 1e-3), "dP/dt": ("kPa/s", 1e-3),
-         "t": ("s", 1.0)}  # fmt: skip
+#: Readable units for periods along a signal in these SI units.
+READABLE = {"m": ("mm", 1e3), "m/s": ("mm/s", 1e3), "Pa": ("kPa", 1e-3), "Pa/s": ("kPa/s", 1e-3)}
 MIN_SHARE = 0.25  # a period is reported when one sinusoid explains this share of the residual
 
 
-def periodicity(residual: np.ndarray, data: LoopData, signal: str, points: int = 6000) -> str:
+def periodicity(residual: np.ndarray, data: Signals, signal: str, points: int = 6000) -> str:
     """The dominant period of the residual (or of residual x sign(v)) along ``signal``, if one
     sinusoid in it explains at least MIN_SHARE of the variance; "" otherwise."""
     from scipy.signal import lombscargle
@@ -100,8 +100,9 @@ def periodicity(residual: np.ndarray, data: LoopData, signal: str, points: int =
     share, label, period = max(found)
     if share < MIN_SHARE:
         return ""
-    unit, factor = UNITS[signal]
+    si = unit(data, signal)
+    name, factor = READABLE.get(si, (si, 1.0))
     return (
-        f"{label} oscillates along {signal} with period {period * factor:.3g} {unit} "
+        f"{label} oscillates along {signal} with period {period * factor:.3g} {name} "
         f"(one sinusoid explains {100 * share:.0f} % of its variance)"
     )

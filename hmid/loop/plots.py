@@ -4,10 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from hmid.loop.diagnostics import binned_mean, signals
+from hmid.loop.diagnostics import binned_mean, signals, unit
 from hmid.loop.result import LoopResult
-
-_UNITS = {"x": "m", "v": "m/s", "P": "Pa", "dP/dt": "Pa/s", "t": "s"}
 
 
 def _figure(**kwargs):
@@ -38,7 +36,8 @@ def plot_whiteness(result: LoopResult, path: Path) -> None:
         ax = axes[row, 2]
         freq, psd = d.spectrum
         ax.semilogy(freq[1:], psd[1:], lw=1)
-        ax.set(xlabel="frequency [Hz]", ylabel="PSD [N²/Hz]", title=f"residual spectrum, {label}")
+        ax.set(xlabel="frequency [Hz]", ylabel=f"PSD [({result.unit})²/Hz]",
+               title=f"residual spectrum, {label}")  # fmt: skip
     fig.savefig(path, dpi=110)
 
 
@@ -60,8 +59,8 @@ def plot_structure(result: LoopResult, path: Path) -> None:
             ax.plot(part["centre"], part["mean"], "o-", ms=3, lw=1, label=direction)
         ax.axhline(0, color="0.6", lw=0.8)
         ax.set(
-            xlabel=f"{name} [{_UNITS[name]}]",
-            ylabel="mean residual [N]",
+            xlabel=f"{name} [{unit(data, name)}]",
+            ylabel=f"mean residual [{result.unit}]",
             title=f"{label}: strongest dependence on {name} (η² = {eta2:.3f})",
         )
         ax.legend(fontsize=7)

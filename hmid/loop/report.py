@@ -14,16 +14,17 @@ from hmid.report import Figure, Section, Table
 
 def before_after(result: LoopResult) -> pd.DataFrame:
     rows = []
+    unit = result.unit
     for label, s in (
-        ("before (base)", result.before),
-        ("after (with added effects)", result.after),
+        (f"before: {result.base_name}", result.before),
+        (f"after: {result.after_name}", result.after),
     ):
         rows.append(
             {
                 "model": label,
                 "error kind": s.kind,
-                "held-out RMSE [N]": s.rmse,
-                "max |error| [N]": s.max_abs_error,
+                f"held-out RMSE [{unit}]": s.rmse,
+                f"max |error| [{unit}]": s.max_abs_error,
                 "NRMSE fit [%]": s.nrmse_fit_pct,
                 "R²": s.r2,
                 "rows": s.n,
@@ -39,7 +40,7 @@ def diagnostics_table(result: LoopResult) -> pd.DataFrame:
         rows.append(
             {
                 "residual": label,
-                "RMS train [N]": d.rms,
+                f"RMS train [{result.unit}]": d.rms,
                 "τ_int [samples]": d.tau_int,
                 "Ljung-Box p": d.ljung_box_p,
                 "Ljung-Box n": d.ljung_box_n,
@@ -55,6 +56,8 @@ def diagnostics_table(result: LoopResult) -> pd.DataFrame:
 
 def metrics(result: LoopResult) -> dict:
     return {
+        "base": result.base_name,
+        "after": result.after_name,
         "verdict": result.verdict,
         "message": result.message,
         "error_kind": "one-step",
@@ -113,7 +116,8 @@ def loop_section(
             Table(
                 result.hint.terms,
                 "Data-driven hint, not an identified effect: sparse regression (orthogonal "
-                "matching pursuit) of the residual on a generic library of standardised signals; "
+                f"matching pursuit, coefficients in {result.unit}) of the residual on a generic "
+                "library of standardised signals; "
                 f"it explains {100 * result.hint.heldout_r2:.0f} % of the held-out residual "
                 "variance",
             ),
@@ -122,19 +126,24 @@ def loop_section(
             hint_text = f"\n\n**Hint (not an identified effect):** the {result.hint.periodic}."
     text = (
         f"**Verdict: {result.verdict}.** {result.message}{hint_text}\n\n"
-        f"Base model: {result.base_title}, `{result.base_equation}`. Errors are **one-step** on "
-        "the held-out rows. The held-out rows also confirm each effect before it is added (it "
-        "must lower their RMSE by the configured margin), so the 'after' error is the error of a "
-        "selected model. Tests count the effective sample size n / τ_int (integrated "
-        "autocorrelation time of the residual); parameter intervals use the same inflation, "
-        "which is approximate."
+        f"Base: **{result.base_name}** as fitted by its family (the 'before'); for the tests its "
+        "terms are refitted by least squares with every profiled parameter profiled, alone and "
+        "with each candidate. Errors are **one-step** on the held-out rows (a lead's reach "
+        "before each segment's end left out). The held-out rows also confirm each effect before "
+        "it is added (it must lower their RMSE by the configured margin), so the 'after' error "
+        "is the error of a selected model. Tests count the effective sample size n / τ_int "
+        "(integrated autocorrelation time of the residual); parameter intervals use the same "
+        "inflation, which is approximate."
     )
     section = Section(
         title,
         text=text,
         tables=(
             Table(table, "Held-out error before and after (one-step)"),
-            Table(result.base_parameters, "Base model parameters (before), with intervals"),
+            Table(
+                result.base_parameters,
+                f"{result.base_name}: its terms refitted by least squares, with intervals",
+            ),
             Table(result.tests, "Every candidate tested, per round"),
             Table(diag, "Residual diagnostics on training rows"),
             *hint_tables,

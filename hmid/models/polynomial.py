@@ -81,7 +81,8 @@ def _resolve_terms(terms: object) -> tuple[Term, ...]:
 
 
 class PolynomialModel(ForceModel):
-    """F_m as a polynomial in x [m], v [m/s], P [Pa] (y in N), fitted by statsmodels OLS.
+    """F_m as a polynomial in x [m], v [m/s], P [Pa] (y in N), fitted by statsmodels OLS; other
+    variables with their SI ``units`` (a mapping), a target in ``target_unit``.
 
     ``terms`` is a variant name (``'quadratic_xv'``, ``'cubic_xv'``, ``'quadratic_xvP'``,
     ``'cubic_xvP'``) or a tuple of :class:`Term` (or term names like ``'x^2*v'``), e.g. from
@@ -103,10 +104,12 @@ class PolynomialModel(ForceModel):
         confidence: float = 0.95,
         scale: bool = True,
         errors: str = "ols",
+        units: Mapping[str, str] | None = None,
+        target_unit: str = FORCE_UNIT,
     ) -> None:
         self._terms = _resolve_terms(terms)
         for variable in {v for term in self._terms for v in term.variables}:
-            variable_unit(variable)  # raises ConfigError for a variable without a unit
+            variable_unit(variable, units)  # raises ConfigError for a variable without a unit
         if isinstance(confidence, bool) or not isinstance(confidence, int | float):
             raise ConfigError(f"confidence must be a number in (0, 1), got {confidence!r}")
         if not 0.0 < confidence < 1.0:
@@ -119,6 +122,8 @@ class PolynomialModel(ForceModel):
         self.confidence = float(confidence)
         self.scale = scale
         self.errors = errors
+        self.units = None if units is None else dict(units)
+        self.target_unit = target_unit
 
     @property
     def name(self) -> str:
@@ -182,7 +187,7 @@ class PolynomialModel(ForceModel):
                 std_err=float(self.bse_[k]),
                 ci_low=float(self.conf_int_[k, 0]),
                 ci_high=float(self.conf_int_[k, 1]),
-                unit=coefficient_unit(term, FORCE_UNIT),
+                unit=coefficient_unit(term, self.target_unit, self.units),
                 p_value=float(self.pvalues_[k]),
             )
             for k, term in enumerate(self._terms)

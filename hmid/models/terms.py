@@ -137,8 +137,11 @@ class Term:
         return self.name
 
 
-def variable_unit(variable: str) -> str:
-    """The SI unit of a model variable (the canonical channel units: x m, v m/s, P Pa, ...)."""
+def variable_unit(variable: str, units: Mapping[str, str] | None = None) -> str:
+    """The SI unit of a model variable: from ``units`` (a rig's channels), else the canonical
+    channel units (x m, v m/s, P Pa, ...)."""
+    if units is not None and variable in units:
+        return units[variable]
     if variable not in CANONICAL_UNITS:
         raise ConfigError(
             f"variable {variable!r} has no known unit; model variables are channels "
@@ -147,13 +150,20 @@ def variable_unit(variable: str) -> str:
     return CANONICAL_UNITS[variable]
 
 
+def coefficient_unit(term: Term, target: str = "N", units: Mapping[str, str] | None = None) -> str:
+    """Unit of the coefficient that multiplies ``term`` to give ``target``: 'N·s/(m²·Pa)';
+    ``units`` gives the variables' units where they are not the canonical channels'."""
+    pairs = tuple(sorted(units.items())) if units else ()
+    return _coefficient_unit(term, target, pairs)
+
+
 @lru_cache(maxsize=512)
-def coefficient_unit(term: Term, target: str = "N") -> str:
-    """Unit of the coefficient that multiplies ``term`` to give ``target``: 'N·s/(m²·Pa)'."""
+def _coefficient_unit(term: Term, target: str, units: tuple[tuple[str, str], ...]) -> str:
     ureg = unit_registry()
     unit = ureg.parse_units(target)
+    known = dict(units) if units else None
     for variable, power in term.powers:
-        unit = unit / ureg.parse_units(variable_unit(variable)) ** power
+        unit = unit / ureg.parse_units(variable_unit(variable, known)) ** power
     return format_unit(unit)
 
 

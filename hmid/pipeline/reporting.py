@@ -9,10 +9,14 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from hmid.experiment import log_units
 from hmid.files import atomic_path, write_json
 from hmid.plots import plot_model, plot_scores
 from hmid.report import Figure, Report, Section, Table, write_report
 from hmid.summary import summarize
+
+#: The thesis accepted a model at R² above 0.85 (Ch. 4); we apply it to held-out data.
+R2_ACCEPT = 0.85
 
 
 def _csv(frame: pd.DataFrame, path: Path) -> Path:
@@ -21,7 +25,7 @@ def _csv(frame: pd.DataFrame, path: Path) -> Path:
     return path
 
 
-def _fit_table(artifacts) -> pd.DataFrame:
+def _fit_table(artifacts, unit: str) -> pd.DataFrame:
     """Thesis Table 4.1 for this run: training fit and held-out error per model."""
     scores = artifacts["compare"].scores.set_index("model")
     rows = []
@@ -34,8 +38,8 @@ def _fit_table(artifacts) -> pd.DataFrame:
                 "terms": s.get("n_params"),
                 "R² (train)": s.get("r2"),
                 "adj. R² (train)": s.get("r2_adj"),
-                "RMSE train [N]": s.get("rmse"),
-                "RMSE held-out [N]": held["rmse (held-out)"],
+                f"RMSE train [{unit}]": s.get("rmse"),
+                f"RMSE held-out [{unit}]": held["rmse (held-out)"],
                 "R² held-out": held["r2 (held-out)"],
                 "AIC": s.get("aic"),
                 "BIC": s.get("bic"),
@@ -43,10 +47,6 @@ def _fit_table(artifacts) -> pd.DataFrame:
             }
         )
     return pd.DataFrame(rows)
-
-
-#: The thesis accepted a model at R² above 0.85 (Ch. 4); we apply it to held-out data.
-R2_ACCEPT = 0.85
 
 
 def _verdict(best) -> str:
@@ -70,54 +70,80 @@ def _friction_text(estimate) -> str:
     return "\n".join(lines)
 
 
-def _loop_summary(result) -> tuple[tuple[str, str], ...]:
+def loop_summary(result) -> tuple[tuple[str, str], ...]:
     if result is None:
         return ()
     added = ", ".join(e.title for e in result.effects) or "no effect added"
     return (
         (
             "closing the loop",
-            f"{result.verdict}: {added}; held-out RMSE (one-step) {result.before.rmse:.4g} → "
-            f"{result.after.rmse:.4g} N",
+            f"{result.verdict}: {added}; held-out RMSE (one-step) {result.base_name} "
+            f"{result.before.rmse:.4g} → {result.after_name} {result.after.rmse:.4g} "
+            f"{result.unit}",
         ),
     )
 
 
-def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: dict) -> dict:
-    """Write every table, figure, metrics.json and the report; returns the metrics."""
-    from hmid.friction import plot_free_fall
+def _parameters(model) -> dict:
+    """The declared parameters of a balance fit: value, interval and unit by name."""
+    table = model.coefficients
+    low, high = (c for c in table.columns if c.startswith("ci_"))
+    return {
+        str(row["parameter"]): {"value": float(row["value"]), "lower": float(row[low]),
+                                "upper": float(row[high]), "unit": str(row["unit"])}
+        for _, row in table.iterrows()
+    }  # fmt: skip
 
-    run_dir = Path(run_dir).resolve()  # figure paths must not depend on the working directory
-    tables, figures = run_dir / "tables", run_dir / "figures"
-    tables.mkdir(exist_ok=True)
-    figures.mkdir(exist_ok=True)
-    comparison, fitted, estimate = artifacts["compare"], artifacts["fit"], artifacts["friction"]
-    split = artifacts["split"]
-    best = comparison.scores.iloc[0]
 
-    data = pd.DataFrame(
-        [summarize(n, item.role, item.log).as_dict() for n, item in artifacts["denoise"].items()]
-    ).drop(columns=["flags"])
-    _csv(data, tables / "data_summary.csv")
-    friction_table = estimate.table()
-    _csv(friction_table, tables / "friction.csv")
-    fit_table = _fit_table(artifacts)
-    _csv(fit_table, tables / "fit_table.csv")
-    _csv(comparison.scores, tables / "held_out_scores.csv")
-    coefficient_sections = []
+def _rig_section(config, units) -> Section:
+    rig = config.rig
+    terms = []
+    for term in rig.balance:
+        how = "model family" if term.kind == "model" else ("known" if term.known else "fitted")
+        terms.append(
+            {
+                "term": term.name,
+                "kind": term.kind,
+                "sign": "+" if term.sign > 0 else "−",
+                "regressor": "the model family's force"
+                if term.kind == "model"
+                else term.regressor(),
+                "coefficient": how,
+                "physically positive": term.positive if term.kind != "model" else None,
+                "description": term.description,
+            }
+        )
+    channels = ", ".join(
+        f"{c} [{units[c]}]" + (" (logged with the opposite sign)" if s.sign < 0 else "")
+        for c, s in rig.channels.items()
+    )
+    text = (
+        f"**{rig.name}**. {rig.convention}\n\n"
+        f"Explained quantity: **{rig.explained.name}** [{units['target']}] = the sum of the "
+        f"terms below. Channels: {channels}"
+        + (f"; v and a derived from {rig.position}" if rig.position else "")
+        + ". Both sides pass through the same zero-phase moving average "
+        f"({1e3 * config.denoise.smoother.window_s:g} ms)."
+    )
+    return Section("Rig: the declared force balance", text=text,
+                   tables=(Table(pd.DataFrame(terms), "Terms of the balance"),))  # fmt: skip
+
+
+def _model_sections(fitted, figures: Path, tables: Path) -> list[Section]:
+    sections = []
     for model in fitted:
         safe = model.name.replace(":", "_")
         _csv(model.coefficients, tables / f"coefficients_{safe}.csv")
         text = f"`{model.equation}`" + "".join(f"\n\n- {note}" for note in model.notes)
         extra_tables, extra_figures = [], []
-        if hasattr(model.model, "report_extras"):  # e.g. MCMC diagnostics of a Bayesian family
-            extras = model.model.report_extras(figures, prefix=safe)
+        extras = model.model.report_extras(figures, prefix=safe)
+        if extras is not None:  # e.g. MCMC diagnostics of a Bayesian family
             text += "\n\n" + extras.text if extras.text else ""
             for frame, caption in extras.tables:
                 _csv(frame, tables / f"{safe}_{len(extra_tables)}.csv")
                 extra_tables.append(Table(frame, caption))
             extra_figures = [Figure(path, caption) for path, caption in extras.figures]
-        coefficient_sections.append(
+        sections.append(
             Section(
                 model.name,
                 text=text,
@@ -128,17 +154,44 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
                 figures=tuple(extra_figures),
             )
         )
+    return sections
 
-    free_fall_logs = [i.log for i in artifacts["denoise"].values() if i.role == "free_fall"]
-    plot_free_fall(free_fall_logs, estimate, figures / "friction.png")
-    plot_scores(comparison.scores, figures / "scores.png")
+
+def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: dict) -> dict:
+    """Write every table, figure, metrics.json and the report; returns the metrics."""
+    run_dir = Path(run_dir).resolve()  # figure paths must not depend on the working directory
+    tables, figures = run_dir / "tables", run_dir / "figures"
+    tables.mkdir(exist_ok=True)
+    figures.mkdir(exist_ok=True)
+    comparison, fitted, estimate = artifacts["compare"], artifacts["fit"], artifacts["friction"]
+    split = artifacts["split"]
+    units = log_units(config)
+    unit, label = units["target"], config.rig.explained.name
+    best = comparison.scores.iloc[0]
+
+    channels = list(config.rig.log_channels)
+    summaries = [summarize(n, i.role, i.pieces, channels) for n, i in artifacts["denoise"].items()]
+    data = pd.DataFrame([s.row(units) for s in summaries])
+    _csv(data, tables / "data_summary.csv")
+    pieces = pd.DataFrame([r.__dict__ for i in artifacts["denoise"].values() for r in i.records])
+    _csv(pieces, tables / "pieces.csv")
+    fit_table = _fit_table(artifacts, unit)
+    _csv(fit_table, tables / "fit_table.csv")
+    _csv(comparison.scores, tables / "held_out_scores.csv")
+    findings = [f for model in fitted for f in model.findings]
+    findings_table = pd.DataFrame([f.to_dict() for f in findings])
+    if findings:
+        _csv(findings_table, tables / "sign_findings.csv")
+    coefficient_sections = _model_sections(fitted, figures, tables)
+
+    plot_scores(comparison.scores, figures / "scores.png", unit)
     model_figures = []
     for model in fitted:
         path = figures / f"model_{model.name.replace(':', '_')}.png"
-        plot_model(comparison.predictions, model.name, path)
+        plot_model(comparison.predictions, model.name, path, label, unit)
         model_figures.append(Figure(path, f"{model.name} on held-out data (one-step error)"))
 
-    loop_sections = ()
+    loop_sections, metrics_loop = (), None
     if artifacts.get("loop") is not None:
         from hmid.loop.report import loop_section
 
@@ -147,54 +200,84 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
         )
         loop_sections = (section,)
 
+    friction_sections, friction_summary = (), ()
+    if estimate is not None:
+        from hmid.friction import plot_free_fall
+
+        free_falls = [p for i in artifacts["denoise"].values() if i.role == "free_fall"
+                      for p in i.pieces]  # fmt: skip
+        plot_free_fall(free_falls, estimate, figures / "friction.png", config.rig.position)
+        friction_table = estimate.table()
+        _csv(friction_table, tables / "friction.csv")
+        friction_sections = (
+            Section(
+                "Rig friction from free-fall tests",
+                text=f"Model: {config.friction.model}; sliding segments with |v| > "
+                f"{config.friction.v_min} m/s.\n\n{_friction_text(estimate)}",
+                tables=(Table(friction_table, "Friction per free-fall log and pooled"),),
+                figures=(Figure(figures / "friction.png", "Free-fall motion and fitted model"),),
+            ),
+        )
+        friction_summary = tuple(
+            (f"friction from free falls: {name}",
+             f"{value:.4g} {estimate.units[name]}, {100 * estimate.confidence:.0f} % CI "
+             f"{estimate.ci[name][0]:.4g} … {estimate.ci[name][1]:.4g}")
+            for name, value in estimate.params.items()
+        )  # fmt: skip
+
     flags = [f for item in artifacts["load"].values() for f in item.log.flags]
-    n_train, n_val = len(split.train.frame), len(split.validation.frame)
+    n_train, n_val = split.n_train, split.n_validation
+    error_kind = f"one-step: {label} predicted from the measured signals at each sample"
     metrics = {
         "experiment": config.name,
-        "error_kind": "one-step: force predicted from measured x, v, P at each sample",
+        "rig": config.rig.name,
+        "explained": {"name": label, "unit": unit},
+        "error_kind": error_kind,
         "best_model": str(best["model"]),
         "held_out": comparison.scores.replace({np.nan: None}).to_dict(orient="records"),
         "fit": [{"model": m.name, **m.fit_summary} for m in fitted],
-        "friction": estimate.to_dict(),
-        "rows": {"train": n_train, "validation": n_val, "stuck_excluded": split.excluded_stuck},
+        "parameters": {m.name: _parameters(m) for m in fitted if m.family == "balance"},
+        "sign_findings": [f.to_dict() for f in findings],
+        "friction": None if estimate is None else estimate.to_dict(),
+        "rows": {"train": n_train, "validation": n_val, "excluded": split.excluded},
         "flags": flags,
     }
-    if loop_sections:
+    if metrics_loop is not None:
         metrics["loop"] = metrics_loop
     write_json(run_dir / "metrics.json", metrics)
 
-    coulomb = estimate.params.get("Fc")
-    lo, hi = estimate.ci.get("Fc", (np.nan, np.nan))
+    sign_summary = ()
+    if findings:
+        sign_summary = (
+            ("⚠ physical-sign check", f"{len(findings)} parameter(s) fitted with an impossible "
+             "sign: " + "; ".join(f.message() for f in findings)),
+        )  # fmt: skip
     report = Report(
         title=f"hmid identification report: {config.name}",
         summary=(
+            ("rig", config.rig.name),
             ("best model (lowest held-out RMSE)", str(best["model"])),
-            ("held-out RMSE, one-step", f"{best['rmse (held-out)']:.4g} N"),
+            (f"held-out RMSE of {label}, one-step", f"{best['rmse (held-out)']:.4g} {unit}"),
             (
                 "held-out R² / NRMSE fit",
                 f"{best['r2 (held-out)']:.3f} / {best['nrmse_fit_pct (held-out)']:.1f} %",
             ),
-            ("held-out max |error|", f"{best['max_abs_error (held-out)']:.4g} N"),
+            ("held-out max |error|", f"{best['max_abs_error (held-out)']:.4g} {unit}"),
             ("verdict", _verdict(best)),
-            (
-                "Coulomb friction (pooled)",
-                f"{coulomb:.4g} N, {100 * estimate.confidence:.0f} % CI {lo:.4g} … {hi:.4g}",
-            ),
-            (
-                "rows: train / held-out / stuck excluded",
-                f"{n_train} / {n_val} / {split.excluded_stuck}",
-            ),
-            *_loop_summary(artifacts.get("loop")),
+            *sign_summary,
+            *friction_summary,
+            ("rows: train / held-out / excluded", f"{n_train} / {n_val} / {split.excluded}"),
+            *loop_summary(artifacts.get("loop")),
         ),
         sections=(
+            _rig_section(config, units),
             Section(
                 "Model comparison on held-out data",
-                text="All errors are **one-step**: the muscle force predicted from the measured "
-                "x, v and P at each held-out sample, compared with the force reconstructed from "
-                "the load cell and the identified friction (thesis eqs. 4.1-4.2). Held-out rows "
-                f"are the {config.split.kind.replace('_', ' ')} split, never used for fitting. "
-                "A model **with memory** (SLS) carries its internal state through each log from "
-                "the measured x alone, never from measured force; free-run simulations of x, "
+                text=f"All errors are **one-step**: {label} (less its known terms) predicted "
+                "from the measured signals at each held-out sample. Held-out rows are the "
+                f"{config.split.kind.replace('_', ' ')} split, never used for fitting. A model "
+                "**with memory** (SLS) carries its internal state through each log from the "
+                "measured position alone, never from the measured force; free-run simulations, "
                 "where a family has them, are in its own section.",
                 tables=(
                     Table(comparison.scores, "Held-out errors per model (sorted by RMSE)"),
@@ -202,6 +285,7 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
                         fit_table,
                         "Table 4.1 for this run: fit on training rows, error on held-out rows",
                     ),
+                    *((Table(findings_table, "Physical-sign findings"),) if findings else ()),
                 ),
                 figures=(
                     Figure(figures / "scores.png", "Held-out RMSE and NRMSE fit"),
@@ -212,18 +296,15 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
             Section(
                 "Model parameters (cf. thesis Table 4.2)", subsections=tuple(coefficient_sections)
             ),
-            Section(
-                "Rig friction from free-fall tests",
-                text=f"Model: {config.friction.model}; sliding segments with |v| > "
-                f"{config.friction.v_min} m/s.\n\n{_friction_text(estimate)}",
-                tables=(Table(friction_table, "Friction per free-fall log and pooled"),),
-                figures=(Figure(figures / "friction.png", "Free-fall motion and fitted model"),),
-            ),
+            *friction_sections,
             Section(
                 "Data",
                 text="Findings from validation:\n\n"
                 + ("\n".join(f"- {f}" for f in flags) if flags else "- none"),
-                tables=(Table(data, "Logs as loaded (SI) and denoised"),),
+                tables=(
+                    Table(data, "Logs as loaded (SI, rig's sign convention) and denoised"),
+                    Table(pieces, "Pieces between logger pauses (unused: too short to filter)"),
+                ),
             ),
         ),
         provenance=provenance,

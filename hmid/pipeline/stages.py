@@ -1,20 +1,22 @@
 """The identification stages: pure functions of the experiment config and upstream artifacts.
 
-load -> denoise -> friction -> reconstruct -> split -> fit -> compare. Each returns plain data
-(logs, estimates, fitted models, score tables); the run folder and report are written elsewhere.
+load -> denoise -> friction -> signals -> split -> fit -> compare -> loop. Each returns plain data
+(logs, estimates, signals, fitted models, score tables); files are written elsewhere.
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from hmid.denoise import denoise_log
-from hmid.errors import ConfigError
-from hmid.experiment import ExperimentConfig
+from hmid.balance import Signals
+from hmid.denoise import Piece, denoise_log, pieces
+from hmid.errors import ConfigError, HmidWarning, LogError
+from hmid.experiment import ExperimentConfig, log_units
 from hmid.families import FitContext, FitData, Fitted
 from hmid.files import sha256
 from hmid.io import Log, load_column_map, read_log
@@ -34,15 +36,22 @@ def log_name(path) -> str:
 
 
 def load(config: ExperimentConfig) -> dict[str, LoadedLog]:
-    """Read and validate every log of the experiment (SI units, flags kept)."""
+    """Read and validate every log (SI units, flags kept); channels the rig declares with
+    ``sign: -1`` are negated, so that every later stage sees the rig's convention."""
     out: dict[str, LoadedLog] = {}
-    rig = config.rig.constants()
+    flips = {c: s.sign for c, s in config.rig.channels.items() if s.sign < 0}
     for entry in config.logs:
         path = config.resolve(entry.path)
         name = log_name(path)
         if name in out:
             raise ConfigError(f"two logs are named {name!r}; log file names must be unique")
-        log = read_log(path, load_column_map(config.resolve(entry.columns)), rig=rig)
+        with warnings.catch_warnings():
+            if config.denoise.split_gaps_s is not None:  # split there, not bridged: said in
+                warnings.filterwarnings("ignore", ".*gap", HmidWarning)  # the pieces table
+            log = read_log(path, load_column_map(config.resolve(entry.columns)))
+        flipped = {c: -log[c] for c in flips if c in log}
+        if flipped:
+            log = log.with_channels(**flipped)
         out[name] = LoadedLog(name, entry.role, log)
     return out
 
@@ -52,139 +61,127 @@ def load_depends(config: ExperimentConfig):
     return {
         "logs": [e.model_dump(mode="json") for e in config.logs],
         "sha256": [[sha256(p), sha256(c)] for p, c in files],
-        "rig": config.rig.model_dump(mode="json"),
+        "signs": {c: s.sign for c, s in config.rig.channels.items()},
     }
 
 
-def denoise(config: ExperimentConfig, load: dict[str, LoadedLog]) -> dict[str, LoadedLog]:
-    """Smoothed channels plus velocity and acceleration for every log."""
-    smoother = config.denoise.smoother.build()
-    differentiator = config.denoise.derivative.build()
-    return {
-        name: LoadedLog(name, item.role, denoise_log(item.log, smoother, differentiator))
-        for name, item in load.items()
-    }
+@dataclass(frozen=True)
+class Denoised:
+    """A log's pieces (split at logger pauses, if asked), each with smoothed and derived
+    channels, and a record of every piece (those too short for the filters marked unused)."""
+
+    name: str
+    role: str
+    pieces: tuple[Log, ...]
+    records: tuple[Piece, ...]
 
 
-def friction(config: ExperimentConfig, denoise: dict[str, LoadedLog]):
-    """Rig friction identified from the free-fall logs (thesis eq. 4.1 without the muscle)."""
-    from hmid.friction import Coulomb, CoulombViscous, identify_friction
+def denoise(config: ExperimentConfig, load: dict[str, LoadedLog]) -> dict[str, Denoised]:
+    """Smoothed channels plus velocity and acceleration for every piece of every log."""
+    smoother, differentiator = config.denoise.build()
+    rig = config.rig
+    out = {}
+    for name, item in load.items():
+        kept, records = pieces(
+            item.log, name, config.denoise.split_gaps_s, 3 * config.denoise.longest_window_s
+        )
+        channels = rig.log_channels if item.role == "dynamic" else (rig.position,)
+        denoised = tuple(
+            denoise_log(part, smoother, differentiator, channels=channels, position=rig.position)
+            for part in kept
+        )
+        out[name] = Denoised(name, item.role, denoised, tuple(records))
+    return out
 
-    free_fall = [item.log for item in denoise.values() if item.role == "free_fall"]
-    if not free_fall:
-        raise ConfigError("logs: no log has role 'free_fall'; friction needs free-fall tests")
+
+def friction(config: ExperimentConfig, denoise: dict[str, Denoised]):
+    """Rig friction identified from the free-fall logs (None if no term takes it from them)."""
+    if not config.rig.from_free_fall:
+        return None
+    from hmid.friction import Coulomb, CoulombViscous, FallRig, identify_friction
+
+    free_fall = [p for item in denoise.values() if item.role == "free_fall" for p in item.pieces]
     model = {"coulomb": Coulomb, "coulomb_viscous": CoulombViscous}[config.friction.model]()
+    rig = config.rig
     return identify_friction(
         free_fall,
-        config.rig.constants(),
+        FallRig(rig.free_fall.mass, rig.free_fall.drive),
         model,
-        differentiator=config.denoise.derivative.build(),
+        differentiator=config.denoise.build()[1],
         v_min=config.friction.v_min,
         confidence=config.friction.confidence,
+        position=rig.position,
+        friction_sign=rig.from_free_fall[0].sign,
+        explained=rig.explained.channels[0] if len(rig.explained.parts) == 1 else None,
     )
 
 
-def reconstruct(config: ExperimentConfig, denoise: dict[str, LoadedLog], friction):
-    """Muscle force of every dynamic log from the load cell (or acceleration) and the friction."""
-    from hmid.friction import reconstruct_muscle_force
+def signals(config: ExperimentConfig, denoise: dict[str, Denoised], friction) -> Signals:
+    """The dynamic logs as the balance reads them: smoothed channels, the explained quantity
+    less its known terms, and the usable rows."""
+    from hmid.balance.prepare import prepare
 
-    out = {}
-    for name, item in denoise.items():
-        if item.role != "dynamic":
-            continue
-        log = reconstruct_muscle_force(
-            item.log,
-            config.rig.constants(),
-            friction,
-            source=config.rig.force_source,
-            v_deadband=config.friction.v_deadband,
+    dynamic = {n: list(item.pieces) for n, item in denoise.items() if item.role == "dynamic"}
+    smoother, differentiator = config.denoise.build()
+    try:
+        return prepare(
+            config.rig,
+            dynamic,
+            log_units(config),
+            smoother=smoother,
+            differentiator=differentiator,
+            free_fall_law=None if friction is None else friction.friction,
+            v_deadband=config.fit.v_deadband,
+            exclude_stuck=config.fit.exclude_stuck,
         )
-        out[name] = LoadedLog(name, item.role, log)
-    if not out:
-        raise ConfigError("logs: no log has role 'dynamic'; there is nothing to identify")
-    return out
+    except KeyError as err:
+        raise LogError(f"signals: a dynamic log lacks channel {err}") from None
 
 
 @dataclass(frozen=True)
 class Split:
-    train: FitData
-    validation: FitData
-    excluded_stuck: int  # samples left out: block stuck, or within a derivative reach of an end
+    signals: Signals  # with the train and validation rows marked
+    excluded: int  # samples left out of both: motion stopped, or within a filter's reach
+
+    @property
+    def n_train(self) -> int:
+        return int(self.signals.train.sum())
+
+    @property
+    def n_validation(self) -> int:
+        return int(self.signals.validation.sum())
 
 
-def split(config: ExperimentConfig, reconstruct: dict[str, LoadedLog]) -> Split:
+def split(config: ExperimentConfig, signals: Signals) -> Split:
     """Training and held-out rows, the same for every family."""
-    from hmid.friction import derivative_reach
-
-    masks = validation_masks({n: len(item.log) for n, item in reconstruct.items()}, config.split)
-    differentiator = config.denoise.derivative.build()
-    frames = []
-    for name, item in reconstruct.items():
-        log = item.log
-        # within one derivative reach of a log's ends v is less accurate and its sign unreliable
-        reach = derivative_reach(log.t, differentiator)
-        inner = np.zeros(len(log), dtype=bool)
-        inner[reach : len(log) - reach] = True
-        frames.append(
-            pd.DataFrame(
-                {
-                    "log": name,
-                    "t": log.t,
-                    "x": log["x_s"],
-                    "v": log["v"],
-                    "P": log["P_s"],
-                    "F_m": log["F_m"],
-                    "sliding": (log["sliding"] > 0.5) & inner,
-                    "validation": masks[name],
-                }
-            )
-        )
-    rows = pd.concat(frames, ignore_index=True)
-    keep = rows["sliding"] if config.fit.exclude_stuck else np.ones(len(rows), dtype=bool)
-    rows["train"] = keep & ~rows["validation"]
-    rows["validation"] = keep & rows["validation"]
-    columns = ["t", "x", "v", "P", "F_m", "train", "validation"]
-    sequences = {
-        name: group[columns].reset_index(drop=True)
-        for name, group in rows.groupby("log", sort=False)
-    }
-    # families see forces only where they may fit: NaN elsewhere, so nothing can leak
-    train_sequences = {
-        name: seq.assign(F_m=seq["F_m"].where(seq["train"])) for name, seq in sequences.items()
-    }
-    columns = ["log", "t", "x", "v", "P", "F_m"]
-    train = rows.loc[rows["train"], columns].reset_index(drop=True)
-    held = rows.loc[rows["validation"], columns].reset_index(drop=True)
-    for role, frame in (("training", train), ("held-out", held)):
-        if len(frame) < 10:
+    frame = signals.frame
+    lengths = frame.groupby("log", sort=False).size().to_dict()
+    masks = validation_masks(lengths, config.split)
+    # a log's pieces are consecutive rows, logs in order of first appearance
+    validation = np.concatenate([masks[name] for name in lengths])
+    out = signals.with_roles(~validation, validation)
+    for role, n in (("training", int(out.train.sum())), ("held-out", int(out.validation.sum()))):
+        if n < 10:
             raise ConfigError(
-                f"split: only {len(frame)} {role} rows remain after excluding stuck samples; "
-                "change split.validation_fraction or split.validation_logs"
+                f"split: only {n} {role} rows remain after excluding stopped motion; change "
+                "split.validation_fraction or split.validation_logs"
             )
-    return Split(
-        FitData(train, "train", train_sequences),
-        FitData(held, "validation", sequences),
-        int((~keep).sum()),
-    )
+    return Split(out, int((~out.usable).sum()))
 
 
 def fit(
     config: ExperimentConfig, split: Split, friction, *, workdir: Path, force: bool = False
 ) -> list[Fitted]:
     """Every configured family fitted on the same training rows."""
-    if not config.models:
-        raise ConfigError("models: no model family configured; add e.g. {family: polynomial}")
-    context = FitContext(config.seed, workdir, config.rig.constants(), friction, force)
+    context = FitContext(config.seed, workdir, friction, force)
+    signals = split.signals
+    # families see the explained quantity only where they may fit: NaN elsewhere, so no
+    # held-out force can leak into a fit
+    hidden = signals.with_columns(target=np.where(signals.train, signals.target, np.nan))
+    data = FitData(hidden, config.rig, "train")
     fitted: list[Fitted] = []
     for spec in config.models:
-        fitted.extend(spec.fit(split.train, context))
-    names = [model.name for model in fitted]
-    repeated = sorted({n for n in names if names.count(n) > 1})
-    if repeated:
-        raise ConfigError(
-            f"models: several fitted models are named {repeated}; give each entry its own name "
-            "(e.g. name: cubic for a second sls entry, or distinct custom term-set names)"
-        )
+        fitted.extend(spec.fit(data, context))
     return fitted
 
 
@@ -196,30 +193,33 @@ class Comparison:
 
 def compare(config: ExperimentConfig, split: Split, fit: list[Fitted]) -> Comparison:
     """Every model scored on the held-out rows (and, for reference, on the training rows)."""
-    rows, predictions = [], split.validation.frame.copy()
+    train = FitData(split.signals, config.rig, "train")
+    held = train.as_role("validation")
+    predictions = held.frame(("explained", "target"))
+    rows = []
     for model in fit:
-        held = model.predict(split.validation)
-        train = model.predict(split.train)
-        s_val = score(split.validation.y, held, model.kind)
-        s_train = score(split.train.y, train, model.kind)
+        y_held = model.predict(held)
+        s_val = score(held.y, y_held, model.kind)
+        s_train = score(train.y, model.predict(train), model.kind)
         rows.append(
             {"model": model.name, "family": model.family, "error kind": model.kind}
-            | {f"{k} (held-out)": v for k, v in s_val.to_dict().items() if k not in ("kind",)}
+            | {f"{k} (held-out)": v for k, v in s_val.to_dict().items() if k != "kind"}
             | {"r2 (train)": s_train.r2, "rmse (train)": s_train.rmse}
         )
-        predictions[model.name] = held
-        band = model.predict_interval(split.validation)
+        predictions[model.name] = y_held
+        band = model.predict_interval(held)
         if band is not None:
             predictions[f"{model.name} lower"], predictions[f"{model.name} upper"] = band
     table = pd.DataFrame(rows).sort_values("rmse (held-out)", kind="stable")
     return Comparison(table.reset_index(drop=True), predictions)
 
 
-def loop(config: ExperimentConfig, split: Split):
-    """Residual diagnostics, candidate effects and held-out confirmation (``None`` if the
-    experiment has no ``loop`` section)."""
+def loop(config: ExperimentConfig, split: Split, fit: list[Fitted]):
+    """The loop on the model ``loop.base`` names (None if the experiment has no loop)."""
     if config.loop is None:
         return None
-    from hmid.loop import from_sequences, run_loop
+    from hmid.loop import LoopBase, Setting, run_loop
 
-    return run_loop(from_sequences(split.validation.sequences), config.loop)
+    model = next(m for m in fit if m.name == config.loop.base)
+    base = LoopBase.of(model, FitData(split.signals, config.rig))
+    return run_loop(split.signals, base, config.loop, Setting.of(config.rig))

@@ -71,6 +71,10 @@ class Differentiator(abc.ABC):
     def _derivative(self, t: np.ndarray, y: np.ndarray, order: int) -> np.ndarray:
         """Called with checked, finite arrays of equal length >= 3."""
 
+    def includes(self, smoother: Smoother) -> bool:
+        """Whether its derivatives already went through ``smoother`` (of the smoothed signal)."""
+        return False
+
 
 @dataclass(frozen=True)
 class SavitzkyGolay(Differentiator):
@@ -158,6 +162,38 @@ class SmoothedFiniteDifference(Differentiator):
         if order == 2:
             d, _ = self._step(t, t_s, d)
         return d
+
+
+@dataclass(frozen=True)
+class DerivativeOfSmoothed(Differentiator):
+    """Derivatives of ``smoother``'s output itself: central differences of the smoothed signal
+    (second order on uneven ``t``; the three-point second difference for order 2).
+
+    Derivatives then see exactly the low-pass every other smoothed signal sees (differencing
+    commutes with a linear filter), so a force balance smoothed on both sides is consistent at
+    every frequency; a Savitzky-Golay second derivative attenuates a 5 Hz acceleration by 4.4 %
+    (51 ms, cubic) while its own smoothing passes it at 99.9 %. The smoother must be smooth: a
+    single moving average's box edges make its second difference noisy (use ``passes`` >= 2).
+    """
+
+    smoother: Smoother
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.smoother, Smoother):
+            raise SignalError(f"smoother must be a Smoother, got {self.smoother!r}")
+
+    def includes(self, smoother: Smoother) -> bool:
+        return smoother == self.smoother
+
+    def _derivative(self, t: np.ndarray, y: np.ndarray, order: int) -> np.ndarray:
+        y = self.smoother(t, y)
+        if order == 1:
+            return np.gradient(y, t)
+        h1, h2 = np.diff(t)[:-1], np.diff(t)[1:]  # steps before and after each inner sample
+        out = np.empty_like(y)
+        out[1:-1] = 2 * (h1 * y[2:] - (h1 + h2) * y[1:-1] + h2 * y[:-2]) / (h1 * h2 * (h1 + h2))
+        out[0], out[-1] = out[1], out[-2]
+        return out
 
 
 def estimate_motion(

@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from hmid.io.log import Log, RigConstants
+from hmid.io.log import Log
 from hmid.simulate.effects import Effect, make_effect
 from hmid.simulate.params import Glitches, RigParams, Sensors, SensorSpec
 from hmid.simulate.profiles import Constant, Profile
@@ -193,7 +193,6 @@ def simulate_log(config: DatasetConfig, spec: DynamicLog | FreeFallLog) -> Simul
     log = Log(
         frame.loc[keep],
         source=f"simulated:{spec.name}",
-        rig=RigConstants(M=rig.M, m1=rig.m1, g=rig.g),
         meta={"simulator_seed": seed},
     )
     truth = _truth(config, spec, seed, sensors, effects, traj, counts, keep)

@@ -23,7 +23,7 @@ from hmid.simulate.dataset import DatasetConfig, DynamicLog, FreeFallLog, Simula
 from hmid.simulate.params import Sensors
 from hmid.simulate.relaxation import RelaxationRun, write_relaxation
 
-_SI = {"t": "s", "P": "Pa", "x": "m", "F": "N"}
+_SI = {"t": "s", "P": "Pa", "x": "m", "F": "N", "u": "N"}
 
 
 def _from_si(values: np.ndarray, channel: str, unit: str) -> np.ndarray:
@@ -62,14 +62,27 @@ def write_log(sim: Simulated, folder: Path, config: DatasetConfig) -> Path:
     out = {column_name(c, units[c]): _from_si(frame[c].to_numpy(), c, units[c]) for c in frame}
     table = pd.DataFrame(out)
     name = sim.truth["name"]
-    path = folder / f"{name}.{config.output.format}"
+    path = write_table(table, folder / f"{name}.{config.output.format}")
+    write_json(folder / f"{name}.truth.json", sim.truth)
+    return path
+
+
+def write_table(table: pd.DataFrame, path: Path) -> Path:
+    """Write ``table`` atomically as CSV (10 significant digits) or Parquet, by the suffix."""
     with atomic_path(path) as tmp:
-        if config.output.format == "csv":
+        if path.suffix == ".csv":
             table.to_csv(tmp, index=False, float_format="%.10g")
         else:
             table.to_parquet(tmp, index=False)
-    write_json(folder / f"{name}.truth.json", sim.truth)
     return path
+
+
+def write_catalogue(folder: Path, maps: dict[str, dict], index: list[dict], resolved: dict) -> None:
+    """The column maps, ``index.yaml`` and ``dataset.yaml`` (the resolved config) of a set."""
+    for map_name, mapping in maps.items():
+        write_text(folder / map_name, yaml.safe_dump(mapping, sort_keys=False))
+    write_text(folder / "index.yaml", yaml.safe_dump({"logs": index}, sort_keys=False))
+    write_text(folder / "dataset.yaml", yaml.safe_dump(resolved, sort_keys=False))
 
 
 def _map_file(config: DatasetConfig, spec: DynamicLog | FreeFallLog) -> tuple[str, dict]:
@@ -103,9 +116,5 @@ def write_dataset(
         maps[map_name] = mapping
         index.append({"name": spec.name, "kind": spec.kind, "file": path.name, "columns": map_name})
         paths.append(path)
-    for map_name, mapping in maps.items():
-        write_text(folder / map_name, yaml.safe_dump(mapping, sort_keys=False))
-    write_text(folder / "index.yaml", yaml.safe_dump({"logs": index}, sort_keys=False))
-    resolved = config.model_dump(mode="json")
-    write_text(folder / "dataset.yaml", yaml.safe_dump(resolved, sort_keys=False))
+    write_catalogue(folder, maps, index, config.model_dump(mode="json"))
     return paths

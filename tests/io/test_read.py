@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from hmid.errors import LogError
-from hmid.io import ChannelSpec, ColumnMap, Log, RigConstants, log_from_frame, read_log
+from hmid.io import ChannelSpec, ColumnMap, Log, log_from_frame, read_log
 
 NAMED = ColumnMap(
     channels={
@@ -156,13 +156,6 @@ def test_log_from_frame_matches_read_log(tmp_path):
 def test_log_from_frame_rejects_non_frames():
     with pytest.raises(LogError, match=r"^<memory>: expected a pandas DataFrame, got dict$"):
         log_from_frame({"t": [0, 1]}, NAMED)  # type: ignore[arg-type]
-
-
-def test_rig_constants_pass_through(tmp_path):
-    rig = RigConstants(M=1.2, m1=0.5)
-    log = read_log(write_table(tmp_path / "a.csv", ROWS), NAMED, rig=rig)
-    assert log.rig is rig
-    assert read_log(write_table(tmp_path / "b.csv", ROWS), NAMED).rig == RigConstants()
 
 
 def test_integer_and_nullable_columns_become_float64():

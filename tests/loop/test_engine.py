@@ -4,11 +4,12 @@ import re
 
 import numpy as np
 import pytest
+from conftest import loop_on
 
-from hmid.loop import LoopSpec, PistonBase, run_loop
+from hmid.loop import LoopSpec
 
 SPEC = LoopSpec(
-    base=PistonBase(),
+    base="balance",
     candidates=("viscous", "stribeck", "pressure_friction", "pressure_lag", "force_zero_drift"),
 )
 
@@ -48,7 +49,7 @@ def test_an_undeclared_effect_is_named_and_its_parameter_recovered(
     synthetic, effect, name, parameter
 ):
     data, truth = synthetic(effect)
-    result = run_loop(data, SPEC)
+    result = loop_on(data, SPEC)
     assert result.first_effect == name, result.tests
     value, lower, upper = _interval(result.effects[0], parameter)
     se = (upper - lower) / 3.92  # 95 % interval; 4 standard errors keeps this test from flaking
@@ -69,7 +70,7 @@ def test_a_pressure_lag_is_found_and_its_delay_bracketed(synthetic):
         return 5.0e-4 * (np.concatenate(list(shifted)) - frame["P"]), {"d": delay}
 
     data, _ = synthetic(lag)
-    result = run_loop(data, SPEC)
+    result = loop_on(data, SPEC)
     assert result.first_effect == "pressure_lag"
     _, lower, upper = _interval(result.effects[0], "d")
     assert lower <= delay <= upper
@@ -78,7 +79,7 @@ def test_a_pressure_lag_is_found_and_its_delay_bracketed(synthetic):
 def test_clean_data_get_no_effect_and_no_claim_of_structure(synthetic):
     for seed in range(3):
         data, _ = synthetic(None, seed=seed)
-        result = run_loop(data, SPEC)
+        result = loop_on(data, SPEC)
         assert result.effects == ()
         assert result.verdict == "no attributable structure"
         assert result.after.rmse == result.before.rmse
@@ -89,7 +90,7 @@ def test_structure_outside_the_library_is_reported_as_unexplained(synthetic):
         return -0.6 * np.sign(frame["v"]) * np.sin(2 * np.pi * frame["x"] / 0.004), {}
 
     data, _ = synthetic(ripple)
-    result = run_loop(data, SPEC)
+    result = loop_on(data, SPEC)
     assert result.effects == ()
     assert result.verdict == "unexplained structure"
     assert result.diagnostics_after.strongest[0] == "x"
@@ -101,7 +102,7 @@ def test_structure_outside_the_library_is_reported_as_unexplained(synthetic):
 
 def test_every_candidate_is_tabulated_with_its_evidence(synthetic):
     data, _ = synthetic(viscous)
-    result = run_loop(data, SPEC)
+    result = loop_on(data, SPEC)
     first = result.tests[result.tests["round"] == 1]
     assert set(first["candidate"]) == set(SPEC.candidates)
     assert first.loc[first["added"], "candidate"].tolist() == ["viscous"]
@@ -111,13 +112,13 @@ def test_every_candidate_is_tabulated_with_its_evidence(synthetic):
 
 def test_a_margin_no_effect_can_meet_adds_nothing(synthetic):
     data, _ = synthetic(viscous)
-    result = run_loop(data, SPEC.model_copy(update={"margin": 0.99}))
+    result = loop_on(data, SPEC.model_copy(update={"margin": 0.99}))
     assert result.effects == ()
     assert result.verdict == "unexplained structure"
 
 
 def test_the_loop_is_deterministic(synthetic):
     data, _ = synthetic(stribeck)
-    a, b = run_loop(data, SPEC), run_loop(data, SPEC)
+    a, b = loop_on(data, SPEC), loop_on(data, SPEC)
     assert a.tests.equals(b.tests)
     np.testing.assert_array_equal(a.residual_after, b.residual_after)

@@ -4,31 +4,27 @@ import numpy as np
 import pandas as pd
 from statsmodels.tsa.stattools import acf
 
-from hmid.loop import LoopData
-from hmid.loop.statistics import (
-    NestedTest,
+from hmid.balance import Signals
+from hmid.balance.statistics import (
     autocorrelation,
     integrated_time,
     masked_series,
     profile_interval,
 )
+from hmid.loop.statistics import NestedTest, holm
 
 
-def _data(n: int, rows: np.ndarray, segments: int = 2) -> LoopData:
+def _data(n: int, rows: np.ndarray, segments: int = 2) -> Signals:
     frame = pd.DataFrame(
         {
             "log": "a",
             "segment": np.repeat(np.arange(segments), n // segments),
             "t": np.arange(n) * 1e-3,
-            "x": 0.0,
-            "v": 0.0,
-            "P": 0.0,
-            "y": 0.0,
+            "target": 0.0,
             "train": rows,
-            "validation": False,
         }
     )
-    return LoopData(frame)
+    return Signals.from_frame(frame, {"target": "N"})
 
 
 def test_acf_equals_statsmodels_pairwise_over_gaps():
@@ -86,3 +82,11 @@ def test_profile_interval_holds_the_minimum_and_widens_with_less_data():
     wide = profile_interval(grid, sse, 50, 0.95)
     assert narrow[0] <= 0.5 <= narrow[1]
     assert wide[0] <= narrow[0] and wide[1] >= narrow[1] and wide != narrow
+
+
+def test_holm_matches_statsmodels():
+    from statsmodels.stats.multitest import multipletests
+
+    p = np.random.default_rng(7).uniform(0, 0.05, 9) ** 2
+    np.testing.assert_allclose(holm(list(p)), multipletests(p, method="holm")[1], rtol=1e-12)
+    assert holm([]).size == 0

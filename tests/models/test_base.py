@@ -111,7 +111,7 @@ def test_bad_shapes_and_types_are_one_line_errors(model) -> None:
 
 def test_hyper_parameters_are_frozen_and_reported(model) -> None:
     params = model.get_params()
-    assert set(params) == {"terms", "confidence", "scale", "errors"}
+    assert set(params) == {"terms", "confidence", "scale", "errors", "units", "target_unit"}
     assert repr(model).startswith(f"{type(model).__name__}(terms=")
     with pytest.raises(AttributeError, match="fixed at construction"):
         model.confidence = 0.5

@@ -24,7 +24,9 @@ DATASET = {
 BASE = {
     "name": "tiny",
     "seed": 3,
-    "rig": {"M": 0.25, "m1": 0.5},
+    "rig": yaml.safe_load((Path(__file__).resolve().parents[2] / "configs/demo.yaml").read_text())[
+        "rig"
+    ],
     "logs": [
         {"path": "../data/sine.csv", "columns": "../data/columns-dynamic.yaml", "role": "dynamic"},
         {"path": "../data/chirp.csv", "columns": "../data/columns-dynamic.yaml", "role": "dynamic"},

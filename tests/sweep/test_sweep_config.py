@@ -133,6 +133,6 @@ def test_run_ids_follow_the_config_and_the_data(workspace, sweep_file, tmp_path)
 
 
 def test_two_runs_with_the_same_experiment_are_an_error(sweep_file, tmp_path):
-    path = sweep_file("twice", runs=[{}, {"denoise.smoother.window_s": 0.01}])  # the default
+    path = sweep_file("twice", runs=[{}, {"denoise.smoother.window_s": 0.011}])  # the default
     with pytest.raises(ConfigError, match="runs 1 and 2 give the same experiment"):
         plan_sweep(load_sweep(path), tmp_path)

@@ -64,7 +64,7 @@ def test_process_pool_sweep_reports_the_failed_run_and_finishes_the_others(pool_
         record = read_done(outcome.folder, run_id)
         assert record is not None and record.worker.split(":")[1] != str(os.getpid())
         config = load_experiment(outcome.folder / "runs" / run_id / "config.yaml")  # stands alone
-        window = record.overrides.get("denoise.smoother.window_s", 0.01)
+        window = record.overrides.get("denoise.smoother.window_s", 0.011)
         assert config.denoise.smoother.window_s == window
         if record.status == "ok":
             metrics = json.loads((outcome.folder / folder / "metrics.json").read_text())

@@ -6,55 +6,70 @@ from typing import ClassVar
 
 import numpy as np
 
-from hmid.loop.candidates._base import Candidate
-from hmid.loop.data import LoopData
-from hmid.loop.design import Columns
+from hmid.balance import Signals, raw
+from hmid.balance.kinds import lagged
+from hmid.loop.candidates._base import Candidate, hyper, stack
 
 _DRIFT_TIMES = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 1000.0)
+#: The column the loop puts the fitted model's elastic force in (for stiffness drift).
+ELASTIC = "fit:elastic"
 
 
 class PressureLag(Candidate):
     name: ClassVar[str] = "pressure_lag"
+    requires: ClassVar[tuple[str, ...]] = ("P",)
     title: ClassVar[str] = "pressure measured late"
     physics: ClassVar[str] = (
         "the pressure that acts leads the measured one by a delay d (sensor tubing, filtering, "
-        "sensor far from the muscle): the model is given P(t + d) instead of P(t)"
+        "sensor far from the actuator): the model is given P(t + d) instead of P(t)"
     )
-    hyper: ClassVar[tuple[str, str]] = ("d", "s")
-    grid: ClassVar[tuple[float, ...]] = tuple(np.round(np.arange(0.0, 0.1001, 0.0025), 4))
-    tail_s: ClassVar[float] = 0.1
-    edges_identified: ClassVar[tuple[bool, bool]] = (False, False)
 
-    def transform(self, data: LoopData, value):
+    @property
+    def hyper(self):
+        grid = np.round(np.arange(0.0, 0.1001, 0.0025), 4)
+        return hyper("d", "s", grid, (False, False), log=False)
+
+    @property
+    def margins(self):
+        return (0.0, 0.1)  # past a segment's end the lead is unknown: never fitted there
+
+    def transform(self, signals: Signals, value):
         if not value:
-            return data
-        t, P, shifted = data["t"], data["P"], np.empty(len(data))
-        for rows in data.segments():
-            # past the segment end the lead is unknown; those rows are never fitted (tail_s)
-            shifted[rows] = np.interp(t[rows] + value, t[rows], P[rows])
-        return data.with_columns(P=shifted)
+            return signals
+        return signals.with_columns(
+            P=lagged(signals, signals["P"], -value, "delay"),
+            **{raw("P"): lagged(signals, signals[raw("P")], -value, "delay")},
+        )
+
+    def columns(self, signals, value):
+        return stack(signals)
 
 
-def _drift(data: LoopData, tau: float) -> np.ndarray:
+def _drift(signals: Signals, tau: float) -> np.ndarray:
     """1 - exp(-t/T), scaled to 1 at the longest segment's last time: its coefficient is the
     change over that span whatever T, so a long T is a straight-line drift, not a huge number."""
-    t = data["t"]
+    t = signals["t"]
     return np.expm1(-t / tau) / np.expm1(-t.max() / tau)
 
 
 class StiffnessDrift(Candidate):
     name: ClassVar[str] = "stiffness_drift"
+    elastic: ClassVar[bool] = True
     title: ClassVar[str] = "stiffness drift"
     physics: ClassVar[str] = (
         "the elastic force changes slowly over a test, (1 - f g(t)) x elastic force with "
         "g = (1 - exp(-t/T)) scaled to 1 at the end of the longest log: the latex warms up or "
         "its network relaxes (f > 0: softening by the fraction f over the test)"
     )
-    hyper: ClassVar[tuple[str, str]] = ("T", "s")
-    grid: ClassVar[tuple[float, ...]] = _DRIFT_TIMES
 
-    def columns(self, data, value, elastic):
-        return Columns.of(len(data), f=(_drift(data, value) * elastic, "1"))
+    @property
+    def hyper(self):
+        return hyper("T", "s", _DRIFT_TIMES)
+
+    def columns(self, signals, value):
+        # the elastic force enters the balance with its sign: softening takes a share f of it
+        values = -_drift(signals, value) * signals[ELASTIC]
+        return stack(signals, self.column(signals, "f", values, unit="1"))
 
 
 class ForceZeroDrift(Candidate):
@@ -62,10 +77,12 @@ class ForceZeroDrift(Candidate):
     title: ClassVar[str] = "force sensor zero drift"
     physics: ClassVar[str] = (
         "the force channel's zero moves slowly over a test (temperature, creep of the strain "
-        "gauge): F_read = F + D g(t), g as for stiffness drift, D the drift over the test"
+        "gauge): reading = force + D g(t), g as for stiffness drift, D the drift over the test"
     )
-    hyper: ClassVar[tuple[str, str]] = ("T", "s")
-    grid: ClassVar[tuple[float, ...]] = _DRIFT_TIMES
 
-    def columns(self, data, value, elastic):
-        return Columns.of(len(data), D=(_drift(data, value), "N"))
+    @property
+    def hyper(self):
+        return hyper("T", "s", _DRIFT_TIMES)
+
+    def columns(self, signals, value):
+        return stack(signals, self.column(signals, "D", _drift(signals, value)))

@@ -11,12 +11,12 @@ meaning; the equation of motion follows from it and the identified friction.
   (one-standard-error rule), a blocked-bootstrap ensemble (seeded ``numpy.random.Generator``,
   NumPy's global state untouched) for each term's inclusion probability and interval. All
   least-squares problems run on QR-compressed blocks, so 30k rows fit in about a second.
-* :class:`EquationOfMotion` -- (M + m1) a = F_m(x, v, P) - m1 g - friction(v), sign(v) replaced by
-  tanh(v/v0), and :func:`free_run` -- fixed-step RK4 on each held-out block, driven by the
-  measured pressure, with divergence detection (reported with its time, never raised) and a
-  wall-time bound.
-* :class:`SINDyResult` -- what the pipeline's family hands on: one-step predictions, the free run
-  and the report's extras (equation of motion, threshold path, free-run table and figure).
+* :class:`EquationOfMotion` -- mass a = F_m(x, v, P) - friction(v) - offset from the rig's
+  declared balance and motion (Ch. 4: mass M + m1, offset m1 g), sign(v) replaced by tanh(v/v0),
+  and :func:`free_run` -- fixed-step RK4 on each held-out block, driven by the measured pressure,
+  with divergence detection (reported with its time, never raised) and a wall-time bound.
+
+The pipeline's family (:mod:`hmid.families.sindy`) wraps these for the report and the loop.
 """
 
 from hmid.models.sindy._freerun import (
@@ -29,20 +29,17 @@ from hmid.models.sindy._freerun import (
 )
 from hmid.models.sindy._library import TANH_NAME, Feature, FeatureLibrary, ForceMap
 from hmid.models.sindy._model import SINDyForceModel
-from hmid.models.sindy._result import Extras, SINDyResult
 from hmid.models.sindy._sparse import ThresholdPath
 
 __all__ = [
     "TANH_NAME",
     "BlockRun",
     "EquationOfMotion",
-    "Extras",
     "Feature",
     "FeatureLibrary",
     "ForceMap",
     "FreeRunResult",
     "SINDyForceModel",
-    "SINDyResult",
     "ThresholdPath",
     "free_run",
     "held_out_blocks",

@@ -1,6 +1,6 @@
 """Free run of the discovered equation of motion on held-out data, driven by measured pressure.
 
-    (M + m1) x'' = F_m(x, x', P) - m1 g - friction(x')
+    mass x'' = F_m(x, x', P) - friction(x') - offset     (Ch. 4: mass M + m1, offset m1 g)
 
 ``F_m`` is the discovered force map; friction is the identified law with ``sign(v)`` replaced by
 the smooth stand-in ``tanh(v / v0)``: ``friction(v) = (Fc + b |v|) tanh(v / v0)``. An adaptive
@@ -37,36 +37,52 @@ _CHECK_EVERY = 256
 
 @dataclass(frozen=True)
 class EquationOfMotion:
-    """x'' = (F_m(x, v, P) - m1 g - (Fc + b |v|) tanh(v / v0)) / (M + m1), SI units."""
+    """x'' = (s F(x, v, P) + s_f (Fc + b |v|) tanh(v / v0) - offset) / mass, SI units.
+
+    From the rig's declared balance: the explained quantity is ``s F + s_f friction(v)`` (the
+    model slot's force and the free-fall friction, with their declared signs) and, by its
+    ``motion``, ``mass a + offset`` (thesis eqs. 4.1-4.2: mass = M + m1, offset = m1 g)."""
 
     force: ForceMap
-    M: float
-    m1: float
-    g: float
+    mass: float
+    offset: float
     Fc: float
     b: float
     v0: float
+    sign: int = 1  # the slot's sign in the balance
+    friction_sign: int = -1  # +1: friction adds to the explained quantity, -1: subtracts
 
     @classmethod
-    def from_estimate(cls, force: ForceMap, rig, friction, v0: float) -> EquationOfMotion:
-        """From rig constants (M, m1, g) and a friction estimate whose law is Fc + b |v|."""
-        if rig is None or rig.M is None or rig.m1 is None:
-            raise ConfigError("the equation of motion needs the rig's M and m1")
-        Fc, b = affine_friction(friction)
-        return cls(force, float(rig.M), float(rig.m1), float(rig.g), Fc, b, float(v0))
+    def from_rig(cls, force: ForceMap, rig, friction, v0: float) -> EquationOfMotion:
+        """From a rig section (its ``motion``, slot and Coulomb term from the free falls) and the
+        friction estimate whose law is Fc + b |v|."""
+        if rig is None or rig.motion is None:
+            raise ConfigError(
+                "the equation of motion needs rig.motion (explained = mass a + offset)"
+            )
+        others = [t.name for t in rig.known if getattr(t, "source", None) != "free_fall"]
+        if others or rig.fitted:
+            names = others + [t.name for t in rig.fitted]
+            raise ConfigError(f"the equation of motion cannot include the balance terms {names}")
+        Fc, b = (0.0, 0.0) if not rig.from_free_fall else affine_friction(friction)
+        sign = rig.from_free_fall[0].sign if rig.from_free_fall else -1
+        return cls(force, float(rig.motion.mass), float(rig.motion.offset), Fc, b, float(v0),
+                   int(rig.slot.sign), int(sign))  # fmt: skip
 
     def acceleration(self, x: float, v: float, P: float) -> float:
         friction = (self.Fc + self.b * abs(v)) * math.tanh(v / self.v0)
-        return (self.force(x, v, P) - self.m1 * self.g - friction) / (self.M + self.m1)
+        drive = self.sign * self.force(x, v, P) + self.friction_sign * friction
+        return (drive - self.offset) / self.mass
 
     def text(self) -> str:
-        mass, weight = self.M + self.m1, self.m1 * self.g
         friction = f"{self.Fc:.4g} N"
         if self.b:
             friction = f"({friction} + {self.b:.4g} N·s/m·|v|)"
+        force = "F_m(x, v, P)" if self.sign > 0 else "−F_m(x, v, P)"
+        op = "+" if self.friction_sign > 0 else "−"
         return (
-            f"ẍ [m/s²] = (F_m(x, v, P) − {weight:.4g} N − {friction}·tanh(v / {self.v0:g} m/s))"
-            f" / {mass:.4g} kg"
+            f"ẍ [m/s²] = ({force} {op} {friction}·tanh(v / {self.v0:g} m/s) − {self.offset:.4g} N)"
+            f" / {self.mass:.4g} kg"
         )
 
 

@@ -36,8 +36,8 @@ import jax
 import jax.numpy as jnp
 
 from hmid.models.sls._data import SLSData
-from hmid.models.sls._recursion import SCAN, intervals, scan_sequential, unit_response
 from hmid.models.sls._space import SLSSpace
+from hmid.signal.maxwell import SCAN, intervals, scan_sequential, unit_response
 
 _LOG_2PI = math.log(2.0 * math.pi)
 #: Samples per chunk of the time axis with the sequential scan (see the module docstring).

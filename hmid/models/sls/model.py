@@ -26,8 +26,8 @@ import numpy as np
 from hmid.errors import ConfigError
 from hmid.models.sls import likelihood as _lik
 from hmid.models.sls._data import SLSData
-from hmid.models.sls._recursion import SCAN
 from hmid.models.sls._space import SLSSpace
+from hmid.signal.maxwell import SCAN
 
 
 @partial(jax.jit, static_argnums=(0, 3))

@@ -41,9 +41,9 @@ import optimistix as optx
 from hmid.errors import ConfigError, HmidError
 from hmid.models.sls import likelihood as _lik
 from hmid.models.sls._data import SLSData
-from hmid.models.sls._recursion import unit_response
 from hmid.models.sls._space import PRIOR_SD, SLSSpace
 from hmid.models.sls.model import SLSModel
+from hmid.signal.maxwell import unit_response
 
 MAX_TUPLES = 2000  # grid tuples examined for several arms (the grid is thinned to stay below)
 PHI_START_MAX = 0.95

@@ -7,8 +7,7 @@ import pandas as pd
 import pytest
 from _sindy_truth import RATE, RIG, training_rows, true_force
 
-from hmid.friction import Coulomb, FrictionEstimate
-from hmid.io.log import RigConstants
+from hmid.friction import Coulomb, FallRig, FrictionEstimate
 from hmid.simulate.profiles import Chirp
 
 
@@ -36,13 +35,9 @@ def truth(trajectory) -> pd.DataFrame:
 
 
 @pytest.fixture(scope="session")
-def rig_constants() -> RigConstants:
-    return RigConstants(M=RIG.M, m1=RIG.m1, g=RIG.g)
-
-
-@pytest.fixture(scope="session")
-def true_friction(rig_constants) -> FrictionEstimate:
-    return FrictionEstimate.known(Coulomb(), {"Fc": RIG.friction.coulomb}, rig_constants)
+def true_friction() -> FrictionEstimate:
+    fall = FallRig(RIG.M + RIG.m1, RIG.m1 * RIG.g)
+    return FrictionEstimate.known(Coulomb(), {"Fc": RIG.friction.coulomb}, fall)
 
 
 @pytest.fixture(scope="session")

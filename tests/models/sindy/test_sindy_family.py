@@ -5,45 +5,49 @@ from __future__ import annotations
 
 import json
 import pickle
+from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from _sindy_truth import TRUE, sequences
 from pydantic import ValidationError
 
 import hmid.families.sindy  # noqa: F401  (registers the family)
+from hmid.balance import Signals
 from hmid.errors import ConfigError
 from hmid.experiment import ExperimentConfig
 from hmid.families import FitContext, FitData, make_family
 from hmid.families.sindy import SINDySpec
 
+ROOT = Path(__file__).resolve().parents[3]
 EXPERIMENT = {
     "name": "sindy",
     "seed": 3,
-    "rig": {"M": 0.25, "m1": 0.5},
-    "logs": [{"path": "a.csv", "columns": "a.yaml", "role": "dynamic"}],
+    "rig": yaml.safe_load((ROOT / "configs/demo.yaml").read_text())["rig"],
+    "logs": [
+        {"path": "a.csv", "columns": "a.yaml", "role": "dynamic"},
+        {"path": "b.csv", "columns": "b.yaml", "role": "free_fall"},
+    ],
 }
+UNITS = {"x": "m", "v": "m/s", "P": "Pa", "target": "N"}
 
 
-def _data(truth, noise: float = 0.01) -> tuple[FitData, FitData]:
-    seqs = sequences(truth)
-    seq = seqs["chirp"].copy()
-    seq["F_m"] = seq["F_m"] + noise * np.random.default_rng(5).standard_normal(len(seq))
-    seqs = {"chirp": seq}
-    frame = seq.assign(log="chirp")[["log", "t", "x", "v", "P", "F_m"]]
-    train = frame[seq["train"]].reset_index(drop=True)
-    held = frame[seq["validation"]].reset_index(drop=True)
-    return FitData(train, "train", seqs), FitData(held, "validation", seqs)
+def _data(truth, rig, noise: float = 0.01) -> tuple[FitData, FitData]:
+    seq = sequences(truth)["chirp"].copy()
+    seq["target"] = seq["F_m"] + noise * np.random.default_rng(5).standard_normal(len(seq))
+    signals = Signals.from_frame(seq.assign(log="chirp"), UNITS, position="x")
+    return FitData(signals, rig, "train"), FitData(signals, rig, "validation")
 
 
 @pytest.fixture(scope="module")
-def data(truth):
-    return _data(truth)
+def data(truth, ch4_rig):
+    return _data(truth, ch4_rig)
 
 
 @pytest.fixture(scope="module")
-def fitted(data, rig_constants, true_friction, tmp_path_factory):
-    context = FitContext(3, tmp_path_factory.mktemp("work"), rig_constants, true_friction)
+def fitted(data, true_friction, tmp_path_factory):
+    context = FitContext(3, tmp_path_factory.mktemp("work"), true_friction)
     (model,) = SINDySpec().fit(data[0], context)
     return model
 
@@ -54,7 +58,7 @@ def test_default_family_fit_finds_the_truth_and_scores_one_step(fitted, data):
     table = fitted.coefficients
     assert {"term", "value", "unit", "inclusion", "kept by config"} <= set(table.columns)
     held = fitted.predict(data[1])
-    assert held.shape == (len(data[1].frame),)
+    assert held.shape == (int(data[1].rows.sum()),)
     assert np.sqrt(np.mean((held - data[1].y) ** 2)) < 0.02  # N; the target noise is 0.01 N
     json.dumps(fitted.fit_summary)  # metrics.json
     assert fitted.fit_summary["free_run_diverged"] == 0
@@ -78,30 +82,29 @@ def test_fitted_model_survives_the_stage_cache(fitted, data):
     np.testing.assert_array_equal(clone.predict(data[1]), fitted.predict(data[1]))
 
 
-def test_diverging_free_run_is_a_note_not_a_crash(data, rig_constants, true_friction, tmp_path):
+def test_diverging_free_run_is_a_note_not_a_crash(data, true_friction, tmp_path):
     """A threshold that removes every term leaves F_m = 0: the block falls toward -x until the
     free run leaves the box around the log's motion; the fit still returns, with the time."""
     spec = SINDySpec(threshold=1e9, keep=(), ensemble={"models": 10})
-    context = FitContext(3, tmp_path, rig_constants, true_friction)
+    context = FitContext(3, tmp_path, true_friction)
     (model,) = spec.fit(data[0], context)
     assert model.fit_summary["free_run_diverged"] == 1
     assert any(n.startswith("free run diverged at t = ") for n in model.notes)
     assert model.equation == "F_m = 0"
 
 
-def test_free_run_is_skipped_without_friction(data, rig_constants, tmp_path):
+def test_free_run_is_skipped_without_friction(data, tmp_path):
     spec = SINDySpec(ensemble={"models": 10})
-    (model,) = spec.fit(data[0], FitContext(3, tmp_path, rig_constants, None))
+    (model,) = spec.fit(data[0], FitContext(3, tmp_path, None))
     assert model.model.free_run is None
     assert any("free run skipped" in note for note in model.notes)
 
 
-def test_pysindy_velocity_option_is_used_for_fit_and_scoring(data, rig_constants, true_friction,
-                                                             tmp_path):  # fmt: skip
+def test_pysindy_velocity_option_is_used_for_fit_and_scoring(data, true_friction, tmp_path):
     spec = SINDySpec(velocity={"kind": "smoothed_finite_difference", "window_s": 0.03},
                      ensemble={"models": 10})  # fmt: skip
-    (model,) = spec.fit(data[0], FitContext(3, tmp_path, rig_constants, true_friction))
-    held = model.predict(data[1])  # through predict_rows: v re-estimated on the whole log
+    (model,) = spec.fit(data[0], FitContext(3, tmp_path, true_friction))
+    held = model.predict(data[1])  # v re-estimated on the whole log
     assert np.sqrt(np.mean((held - data[1].y) ** 2)) < 0.05
     assert "SmoothedFiniteDifference" in model.model.velocity_label
 

@@ -25,11 +25,10 @@ def fitted(truth_fits):
     return truth_fits[0]
 
 
-def test_free_run_tracks_the_measured_x_on_held_out_truth(fitted, truth, rig_constants,
-                                                          true_friction):  # fmt: skip
+def test_free_run_tracks_the_measured_x_on_held_out_truth(fitted, truth, ch4_rig, true_friction):
     """9 s held-out, from the true state at its start, driven by the true P. Tolerance: x RMSE
     below 0.05 mm (measured 0.014 mm; the rig's x spans ~10 mm, its stick band 2 Fc/k ~0.2 mm)."""
-    eom = EquationOfMotion.from_estimate(fitted.force_map(), rig_constants, true_friction, 1e-3)
+    eom = EquationOfMotion.from_rig(fitted.force_map(), ch4_rig, true_friction, 1e-3)
     result = free_run(eom, sequences(truth), substeps=2, max_seconds=60)
     (block,) = result.blocks
     assert block.status == "ok" and block.failed_at is None
@@ -41,18 +40,17 @@ def test_free_run_tracks_the_measured_x_on_held_out_truth(fitted, truth, rig_con
     assert "x RMSE" in result.text()
 
 
-def _unstable_eom(rig_constants, true_friction) -> EquationOfMotion:
+def _unstable_eom(rig, true_friction) -> EquationOfMotion:
     """F_m = m1 g + 1e7 N/m (x - 7 mm): a huge *positive* stiffness, x runs away exponentially."""
     library = FeatureLibrary(("x",), degree=1, friction_term=False)
     library.fit({"x": np.array([0.0, 0.01])})
-    weight = rig_constants.m1 * rig_constants.g
+    weight = rig.motion.offset
     force = ForceMap(library.features_, np.array([weight - 1e7 * 0.007, 1e7]), v0=1e-3)
-    return EquationOfMotion.from_estimate(force, rig_constants, true_friction, 1e-3)
+    return EquationOfMotion.from_rig(force, rig, true_friction, 1e-3)
 
 
-def test_a_diverging_model_is_reported_with_its_time_not_raised(truth, rig_constants,
-                                                                true_friction):  # fmt: skip
-    eom = _unstable_eom(rig_constants, true_friction)
+def test_a_diverging_model_is_reported_with_its_time_not_raised(truth, ch4_rig, true_friction):
+    eom = _unstable_eom(ch4_rig, true_friction)
     start = time.perf_counter()
     result = free_run(eom, sequences(truth), substeps=2, max_seconds=30)
     assert time.perf_counter() - start < 5.0
@@ -65,8 +63,8 @@ def test_a_diverging_model_is_reported_with_its_time_not_raised(truth, rig_const
     assert "diverged**: chirp block" in result.text() and "at t = " in result.text()
 
 
-def test_non_finite_values_and_the_wall_time_bound_are_handled(rig_constants, true_friction):
-    eom = _unstable_eom(rig_constants, true_friction)
+def test_non_finite_values_and_the_wall_time_bound_are_handled(ch4_rig, true_friction):
+    eom = _unstable_eom(ch4_rig, true_friction)
     t = np.arange(1, 2001) / 1000.0
     run = simulate(eom, t, np.full(2000, 1e5), 0.0071, 0.0, substeps=1)  # no bounds: overflows
     assert run.status == "diverged" and "non-finite" in run.reason
@@ -74,10 +72,10 @@ def test_non_finite_values_and_the_wall_time_bound_are_handled(rig_constants, tr
     def overflowing(x, v, P):
         return 10.0 ** (1e3 * x)  # raises OverflowError once x > 0.308 m
 
-    raising = EquationOfMotion(overflowing, 0.25, 0.5, 9.8, 0.35, 0.0, 1e-3)
+    raising = EquationOfMotion(overflowing, 0.75, 4.9, 0.35, 0.0, 1e-3)
     run = simulate(raising, t, np.zeros(2000), 0.31, 0.0)
     assert run.status == "diverged" and run.reason.startswith("OverflowError")
-    stable = EquationOfMotion(ForceMap((), np.array([]), 1e-3), 0.25, 0.5, 9.8, 0.35, 0.0, 1e-3)
+    stable = EquationOfMotion(ForceMap((), np.array([]), 1e-3), 0.75, 4.9, 0.35, 0.0, 1e-3)
     t = np.arange(1, 200_001) / 1000.0  # 200 s at 1 kHz: ~10 s of work
     start = time.perf_counter()
     run = simulate(eom=stable, t=t, P=np.zeros_like(t), x0=0.0, v_start=0.0,
@@ -96,13 +94,20 @@ def test_held_out_blocks_span_stuck_rows_inside_them():
     assert name == "a" and list(block["t"]) == pytest.approx([0.3, 0.4, 0.5, 0.6, 0.7])
 
 
-def test_friction_law_must_be_coulomb_plus_viscous(rig_constants):
+def test_friction_law_must_be_coulomb_plus_viscous(ch4_rig):
     class Stribeck:
         def friction(self, v):
             return np.sign(v) * (0.3 + 0.2 * np.exp(-np.abs(v) / 0.01))
 
+    empty = ForceMap((), np.array([]), 1e-3)
     with pytest.raises(ConfigError, match="Coulomb"):
-        EquationOfMotion.from_estimate(ForceMap((), np.array([]), 1e-3), rig_constants,
-                                       Stribeck(), 1e-3)  # fmt: skip
+        EquationOfMotion.from_rig(empty, ch4_rig, Stribeck(), 1e-3)
     with pytest.raises(ConfigError, match="friction"):
-        EquationOfMotion.from_estimate(ForceMap((), np.array([]), 1e-3), rig_constants, None, 1e-3)
+        EquationOfMotion.from_rig(empty, ch4_rig, None, 1e-3)
+
+
+def test_a_rig_without_declared_motion_has_no_equation_of_motion(ch4_rig, true_friction):
+    empty = ForceMap((), np.array([]), 1e-3)
+    with pytest.raises(ConfigError, match=r"rig\.motion"):
+        EquationOfMotion.from_rig(empty, ch4_rig.model_copy(update={"motion": None}),
+                                  true_friction, 1e-3)  # fmt: skip

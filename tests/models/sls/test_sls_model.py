@@ -13,9 +13,9 @@ from scipy.stats import norm
 
 from hmid.errors import ConfigError, SignalError
 from hmid.models.sls._data import sls_data
-from hmid.models.sls._recursion import SCANS, unit_response
 from hmid.models.sls._space import SLSSpace
 from hmid.models.sls.model import SLSModel
+from hmid.signal.maxwell import SCANS, unit_response
 from hmid.simulate.params import RigParams
 from hmid.simulate.profiles import Chirp
 from hmid.simulate.rig import integrate

@@ -5,31 +5,39 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from hmid.families.base import Extras, FitData, FittedModel
 from hmid.models.sindy._freerun import EquationOfMotion, FreeRunResult
 from hmid.models.sindy._model import SINDyForceModel
 
+VARIABLES = ("x", "v", "P")
+
+
+def sequences(signals) -> dict[str, pd.DataFrame]:
+    """Every segment of ``signals`` whole (t, x, v, P, target, train, validation), by name."""
+    frame = signals.frame
+    out = {}
+    for rows in signals.segments():
+        part = frame.iloc[rows]
+        name = str(part["log"].iloc[0])
+        key = name if name not in out else f"{name}#{int(part['segment'].iloc[0])}"
+        columns = ["t", *VARIABLES, "target", "train", "validation"]
+        out[key] = part[columns].rename(columns={"target": "F_m"}).reset_index(drop=True)
+    return out
+
 
 @dataclass(frozen=True)
-class Extras:
-    """Report material: Markdown text, (table, caption) and (figure path, caption) pairs."""
-
-    text: str
-    tables: list[tuple[pd.DataFrame, str]] = field(default_factory=list)
-    figures: list[tuple[Path, str]] = field(default_factory=list)
-
-
-@dataclass(frozen=True)
-class SINDyResult:
+class SINDyResult(FittedModel):
     """A fitted SINDy variant: ``force`` (one-step), ``eom`` and ``free_run`` (None if skipped).
 
     ``velocity`` re-estimates v of a whole log (``(t, x) -> v``) when the family does not use the
     pipeline's velocity; one-step predictions then use it too, so fit and scoring agree.
+    ``sign`` is the model slot's sign in the balance.
     """
 
     force: SINDyForceModel
@@ -37,21 +45,39 @@ class SINDyResult:
     free_run: FreeRunResult | None
     velocity: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
     velocity_label: str = "the pipeline's velocity estimate (denoise section)"
+    sign: int = 1
+    skipped: str = ""  # why there is no free run
 
-    def predict(self, X: pd.DataFrame) -> np.ndarray:
-        return self.force.predict(X)
+    def predict(self, data: FitData) -> np.ndarray:
+        """One-step force on ``data``'s rows (v re-estimated from whole logs if need be)."""
+        frame = data.frame(VARIABLES)
+        if self.velocity is not None:
+            frame = with_velocity(frame, sequences(data.signals), self.velocity)
+        return self.sign * self.force.predict(frame)
 
-    def predict_rows(self, data) -> np.ndarray:
-        """One-step force on ``data.frame``'s rows (v re-estimated from whole logs if need be)."""
-        if self.velocity is None:
-            return self.force.predict(data.X)
-        return self.force.predict(with_velocity(data.frame, data.sequences, self.velocity))
+    def structure(self):
+        from hmid.balance import Structure
+        from hmid.balance.kinds import ChannelTerm, ConstantTerm, SmoothCoulombTerm
+
+        terms = []
+        for k, (feature, c) in enumerate(zip(self.force.features_, self.force.coef_, strict=True)):
+            if c == 0:
+                continue
+            name = f"C{k}"
+            if feature.term is None:
+                terms.append(SmoothCoulombTerm(name=name, scale=self.force.v0, sign=self.sign,
+                                               positive=False))  # fmt: skip
+            elif feature.term.powers:
+                terms.append(ChannelTerm(name=name, channel=feature.term.name, sign=self.sign))
+            else:
+                terms.append(ConstantTerm(name=name, sign=self.sign))
+        return Structure.of(terms)
 
     def report_extras(self, figures_dir: Path, prefix: str) -> Extras:
         force = self.force
         text = [
-            "Equation of motion: `(M + m1)·ẍ = F_m(x, v, P) − m1·g − friction(v)`"
-            + (f", i.e. `{self.eom.text()}`" if self.eom is not None else ""),
+            "Equation of motion from the rig's declared balance and motion"
+            + (f": `{self.eom.text()}`" if self.eom is not None else ""),
             _threshold_text(force),
             _inclusion_text(force),
             f"Velocity: {self.velocity_label}. Rows with |v| < {force.stick_speed:g} m/s "
@@ -72,7 +98,7 @@ class SINDyResult:
                 figures.append((path, "Free run of the discovered equation of motion on "
                                 "held-out blocks: measured vs simulated x"))  # fmt: skip
         else:
-            text.append("Free run: skipped (no rig constants, friction or held-out block).")
+            text.append(f"Free run: skipped ({self.skipped or 'no held-out block'}).")
         return Extras("\n\n".join(text), tables, figures)
 
 

@@ -1,0 +1,421 @@
+"""The term kinds a rig config declares (``rig.balance``): typed configs that are :class:`Term` s.
+
+Every kind has ``name`` (its parameter), ``sign`` (+1 or -1: how the term enters
+``explained = sum of terms``), ``positive`` (physics makes the parameter positive: a mass, a
+stiffness, a friction level; a fit with the whole interval below zero is flagged), an optional
+``unit`` (checked against the unit the balance implies) and an optional ``value`` (a known
+coefficient, e.g. a weighed mass, in ``unit`` or SI). Kinds:
+
+=================  =========================================================================
+``constant``       an offset
+``channel``        a channel, a power or a product of channels: ``a``, ``x^3``, ``x*P``
+``coulomb``        sign of the velocity (Coulomb friction); ``from: free_fall`` takes its law
+                   from the free-fall tests
+``smooth_coulomb`` tanh(v / ``scale``), a smooth sign
+``memory``         a viscoelastic (Maxwell) arm g_tau(channel), dg/dt = -g/tau + d(channel)/dt,
+                   tau fixed or profiled on a grid
+``lag``            a channel seen through a pure ``delay`` or a ``first_order`` lag, its time
+                   fixed or profiled
+``model``          the slot a model family (polynomial, SINDy, SLS) fills with its force
+=================  =========================================================================
+
+A new kind is one subclass here (it registers itself by its ``kind``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections import OrderedDict
+from collections.abc import Mapping
+from typing import Annotated, Any, ClassVar, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from hmid._messages import format_validation_error
+from hmid.balance.columns import Column, Columns
+from hmid.balance.signals import Signals, raw
+from hmid.balance.terms import Hyper, Term, unit_of
+from hmid.errors import ConfigError
+
+TERM_KINDS: dict[str, type[TermSpec]] = {}
+Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=40)]
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class Grid(_Frozen):
+    """A profiled parameter's search grid: ``points`` values from ``min`` to ``max``."""
+
+    min: Annotated[float, Field(ge=0)]
+    max: Annotated[float, Field(gt=0)]
+    points: Annotated[int, Field(ge=2, le=400)] = 40
+    scale: Literal["log", "linear"] = "log"
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Grid:
+        if self.max <= self.min:
+            raise ValueError(f"max={self.max} must exceed min={self.min}")
+        if self.scale == "log" and self.min <= 0:
+            raise ValueError("a log-scaled grid needs min > 0 (use scale: linear to include 0)")
+        return self
+
+    def values(self) -> tuple[float, ...]:
+        space = np.geomspace if self.scale == "log" else np.linspace
+        return tuple(float(v) for v in space(self.min, self.max, self.points))
+
+
+class TermSpec(_Frozen, Term):
+    """Fields every declared term has; see the module docstring."""
+
+    kind: str
+    name: Name
+    sign: Literal[1, -1] = 1
+    positive: bool = False
+    unit: str | None = None
+    value: float | None = None
+    description: str = ""
+    known_from: ClassVar[str | None] = None  # where a known coefficient comes from, if not value
+
+    @classmethod
+    def __pydantic_init_subclass__(cls, **kwargs):
+        super().__pydantic_init_subclass__(**kwargs)
+        default = cls.model_fields["kind"].default
+        if isinstance(default, str) and default:
+            TERM_KINDS[default] = cls
+
+    @property
+    def known(self) -> bool:
+        """The coefficient is known (a value, or the free-fall friction): not fitted."""
+        return self.value is not None
+
+    def powers(self) -> dict[str, int]:
+        """Channels (and powers) of the regressor, for its unit."""
+        return {}
+
+    def _column(self, signals: Signals, values: np.ndarray) -> Columns:
+        column = Column(
+            self.name,
+            self.sign * np.asarray(values, dtype=float),
+            unit_of(signals, self.powers(), self.unit),
+            self.positive,
+            self.reads,
+        )
+        return Columns.stack(len(signals), [column])
+
+    @classmethod
+    def example(cls) -> TermSpec:
+        """A valid instance on channels x and P (for contract tests and documentation)."""
+        return cls(name="c")
+
+    def label(self) -> str:
+        return self.description or self.name
+
+    def regressor(self) -> str:
+        """The regressor as text, for equations ("a", "x³", "sign(v)"; "1" for a constant)."""
+        return "1"
+
+
+class ConstantTerm(TermSpec):
+    kind: Literal["constant"] = "constant"
+
+    def columns(self, signals, value):
+        return self._column(signals, np.ones(len(signals)))
+
+
+class ChannelTerm(TermSpec):
+    """A channel, a power or a product of channels (``x``, ``x^3``, ``x*P``), as smoothed."""
+
+    kind: Literal["channel"] = "channel"
+    channel: str
+
+    @classmethod
+    def example(cls):
+        return cls(name="k", channel="x^3", sign=-1, positive=True)
+
+    @model_validator(mode="after")
+    def _parse(self) -> ChannelTerm:
+        self.powers()  # a ConfigError names the bad text
+        return self
+
+    def powers(self) -> dict[str, int]:
+        from hmid.models.terms import Term as Monomial
+
+        return dict(Monomial.parse(self.channel).powers)
+
+    @property
+    def reads(self):
+        return tuple(self.powers())
+
+    def regressor(self):
+        from hmid.models.terms import Term as Monomial
+
+        return Monomial.parse(self.channel).pretty
+
+    def columns(self, signals, value):
+        values = np.ones(len(signals))
+        for channel, power in self.powers().items():
+            values = values * signals[channel] ** power
+        return self._column(signals, values)
+
+
+class CoulombTerm(TermSpec):
+    """Friction of constant level opposing motion: sign(v), evaluated on the velocity estimate
+    and then smoothed (as the measured force that contains it)."""
+
+    kind: Literal["coulomb"] = "coulomb"
+    positive: bool = True
+    channel: str = "v"
+    source: Literal["free_fall"] | None = Field(None, alias="from")
+
+    model_config = ConfigDict(populate_by_name=True)
+
+    @model_validator(mode="after")
+    def _one_source(self) -> CoulombTerm:
+        if self.source is not None and self.value is not None:
+            raise ValueError("give either a value or from: free_fall, not both")
+        return self
+
+    @property
+    def known(self) -> bool:
+        return self.value is not None or self.source is not None
+
+    @property
+    def reads(self):
+        return (self.channel,)
+
+    def regressor(self):
+        return f"sign({self.channel})"
+
+    def columns(self, signals, value):
+        return self._column(signals, signals.smooth(np.sign(signals[raw(self.channel)])))
+
+
+class SmoothCoulombTerm(TermSpec):
+    """tanh(v / scale): Coulomb friction with a smooth sign (``scale`` in the channel's unit)."""
+
+    kind: Literal["smooth_coulomb"] = "smooth_coulomb"
+    positive: bool = True
+    channel: str = "v"
+    scale: Annotated[float, Field(gt=0)]
+
+    @classmethod
+    def example(cls):
+        return cls(name="Fs", scale=0.001, sign=-1)
+
+    @property
+    def reads(self):
+        return (self.channel,)
+
+    def regressor(self):
+        return f"tanh({self.channel}/{self.scale:g})"
+
+    def columns(self, signals, value):
+        return self._column(
+            signals, signals.smooth(np.tanh(signals[raw(self.channel)] / self.scale))
+        )
+
+
+def _hyper(setting: float | Grid, name: str, unit: str, edges=(True, True)) -> Hyper | None:
+    if isinstance(setting, Grid):
+        return Hyper(name, unit, setting.values(), edges, setting.scale == "log")
+    return None
+
+
+def _fixed(setting: float | Grid, value: float | None) -> float:
+    if value is not None:
+        return float(value)
+    if isinstance(setting, Grid):
+        raise ValueError("a profiled term needs a value of its parameter")
+    return float(setting)
+
+
+class MemoryTerm(TermSpec):
+    """A Maxwell arm on ``channel``: dg/dt = -g/tau + d(channel)/dt from rest at each segment
+    start; its coefficient is the arm's stiffness (k2 for elongation). ``tau`` fixed or a grid;
+    ``warmup_s``: rows after each segment start left out while the unknown history decays."""
+
+    kind: Literal["memory"] = "memory"
+    channel: str
+    tau: float | Grid = Grid(min=0.01, max=5.0, points=40)
+    warmup_s: Annotated[float, Field(ge=0)] = 0.0
+
+    @classmethod
+    def example(cls):
+        return cls(name="k2", channel="x", sign=-1, positive=True, tau=Grid(min=0.02, max=2.0))
+
+    def powers(self):
+        return {self.channel: 1}
+
+    @property
+    def reads(self):
+        return (self.channel,)
+
+    @property
+    def hyper(self):
+        return _hyper(self.tau, f"tau_{self.name}", "s")
+
+    def regressor(self):
+        return f"g_tau({self.channel})"
+
+    @property
+    def margins(self):
+        return (self.warmup_s, 0.0)
+
+    def columns(self, signals, value):
+        tau = _fixed(self.tau, value)
+        return self._column(signals, memory_response(signals, self.channel, tau, self.hyper))
+
+
+class LagTerm(TermSpec):
+    """``channel`` seen through a pure ``delay`` (value at t - d) or a ``first_order`` lag
+    (time constant T, starting in steady state); ``time`` fixed or a grid (scale linear to
+    include 0)."""
+
+    kind: Literal["lag"] = "lag"
+    channel: str
+    filter: Literal["delay", "first_order"] = "delay"
+    time: float | Grid = Grid(min=0.0, max=0.1, points=41, scale="linear")
+
+    @classmethod
+    def example(cls):
+        return cls(name="A", channel="P", positive=True)
+
+    def powers(self):
+        return {self.channel: 1}
+
+    @property
+    def reads(self):
+        return (self.channel,)
+
+    def regressor(self):
+        return f"{self.filter}({self.channel})"
+
+    @property
+    def hyper(self):
+        name = "d" if self.filter == "delay" else "T"
+        return _hyper(self.time, f"{name}_{self.name}", "s", (False, False))
+
+    @property
+    def margins(self):
+        longest = self.time.max if isinstance(self.time, Grid) else float(self.time)
+        return (longest if self.filter == "delay" else 0.0, 0.0)
+
+    def columns(self, signals, value):
+        time = _fixed(self.time, value)
+        return self._column(signals, lagged(signals, signals[self.channel], time, self.filter))
+
+
+class ModelSlot(TermSpec):
+    """The slot a model family fills with the actuator's force (e.g. the muscle force F_m)."""
+
+    kind: Literal["model"] = "model"
+    name: Name = "F_m"
+
+    @classmethod
+    def example(cls):
+        return cls()
+
+    def columns(self, signals, value):
+        raise TypeError(f"the model slot {self.name!r} has no columns: a model family fills it")
+
+
+def make_term(spec: Mapping[str, Any] | TermSpec, source: str = "rig.balance") -> TermSpec:
+    """A term from ``{"kind": ..., ...}``; unknown kinds or keys are one-line ConfigErrors."""
+    if isinstance(spec, TermSpec):
+        return spec
+    if not isinstance(spec, Mapping) or "kind" not in spec:
+        raise ConfigError(f"{source}: each term needs a 'kind', one of {sorted(TERM_KINDS)}")
+    kind = spec["kind"]
+    if kind not in TERM_KINDS:
+        raise ConfigError(f"{source}: term kind {kind!r} is unknown; known: {sorted(TERM_KINDS)}")
+    cls = TERM_KINDS[kind]
+    try:
+        return cls.model_validate(dict(spec))
+    except ValidationError as err:
+        raise ConfigError(format_validation_error(err, source, cls)) from None
+
+
+# -- signal operations shared with the loop's candidates ------------------------------------------
+_ARMS: OrderedDict[tuple, np.ndarray] = OrderedDict()
+_ARMS_KEPT = 8
+
+
+def _arms_key(signals: Signals, channel: str, grid: tuple[float, ...]) -> tuple:
+    digest = hashlib.sha1(signals["t"].tobytes())
+    digest.update(signals[channel].tobytes())
+    digest.update(signals["segment"].tobytes())
+    return (digest.hexdigest(), grid)
+
+
+def memory_arms(signals: Signals, channel: str, grid: tuple[float, ...]) -> np.ndarray:
+    """g_tau(channel) for every tau of ``grid``, shape (len(grid), n), one scan per segment.
+    Kept for the last few (signals, grid) pairs: profiling asks for the same arms many times,
+    and a sensor effect on another channel does not change them."""
+    key = _arms_key(signals, channel, grid)
+    if key in _ARMS:
+        _ARMS.move_to_end(key)
+        return _ARMS[key]
+    import jax
+    import jax.numpy as jnp
+
+    from hmid.signal.maxwell import unit_response
+
+    t, x = signals["t"], signals[channel]
+    out = np.empty((len(grid), len(signals)))
+    with jax.enable_x64(True):
+        for rows in signals.segments():
+            start = np.zeros(len(rows), dtype=bool)
+            start[0] = True
+            response = unit_response(
+                jnp.asarray(t[rows]), jnp.asarray(x[rows]), jnp.asarray(start), jnp.asarray(grid)
+            )
+            out[:, rows] = np.asarray(response).T
+    _ARMS[key] = out
+    while len(_ARMS) > _ARMS_KEPT:
+        _ARMS.popitem(last=False)
+    return out
+
+
+def memory_response(signals: Signals, channel: str, tau: float, hyper: Hyper | None) -> np.ndarray:
+    """g_tau(channel): a grid row, or between grid points cubic (Lagrange) interpolation in
+    ln tau over the four nearest rows (g is smooth in tau: on a grid of ratio 1.17 this is within
+    ~3e-5 of the exact scan, relative to the arm's range); off any grid, an exact scan."""
+    if hyper is None or len(hyper.grid) < 4:
+        return memory_arms(signals, channel, (float(tau),))[0]
+    log_grid = np.log(np.asarray(hyper.grid))
+    lt = np.log(tau)
+    if not log_grid[0] - 1e-12 <= lt <= log_grid[-1] + 1e-12:
+        raise ValueError(f"tau={tau} s lies outside the grid [{hyper.grid[0]}, {hyper.grid[-1]}]")
+    arms = memory_arms(signals, channel, hyper.grid)
+    index = int(np.argmin(np.abs(log_grid - lt)))
+    if abs(log_grid[index] - lt) < 1e-12:
+        return arms[index]
+    first = int(np.clip(np.searchsorted(log_grid, lt) - 2, 0, len(log_grid) - 4))
+    nodes = range(first, first + 4)
+    weights = [
+        np.prod([(lt - log_grid[k]) / (log_grid[j] - log_grid[k]) for k in nodes if k != j])
+        for j in nodes
+    ]
+    return np.tensordot(weights, arms[first : first + 4], axes=1)
+
+
+def lagged(signals: Signals, values: np.ndarray, time: float, kind: str) -> np.ndarray:
+    """``values`` delayed by ``time`` (held at the first value before a segment starts; a
+    negative time is a lead, held at the last value) or through a first-order lag of time
+    constant ``time`` from steady state, per segment."""
+    if time == 0:
+        return np.asarray(values, dtype=float)
+    t, out = signals["t"], np.empty(len(signals))
+    for rows in signals.segments():
+        if kind == "delay":
+            out[rows] = np.interp(t[rows] - time, t[rows], values[rows])
+        else:
+            from scipy.signal import lfilter
+
+            alpha = 1.0 - np.exp(-np.median(np.diff(t[rows])) / time)
+            y = values[rows]
+            out[rows] = lfilter([alpha], [1.0, alpha - 1.0], y, zi=[(1.0 - alpha) * y[0]])[0]
+    return out

@@ -1,0 +1,111 @@
+"""From denoised log pieces to :class:`Signals`: channels, the explained quantity, the known terms
+subtracted from it, and the rows where the balance can be fitted.
+
+Both sides of the balance see the same zero-phase smoother: the model channels are its outputs
+(velocity and acceleration are derivatives of the smoothed position), and the explained quantity
+(a force sensor, or known parts such as a mass times the acceleration) is made of them too.
+A row is *usable* unless
+
+* the motion stops there (|v| below ``v_deadband``): friction is static and indeterminate, and
+  the direction of motion unknown; the smoother smears a stop, so a row whose kernel puts more
+  than :data:`STOPPED_SHARE` of its weight on stopped samples is left out as well;
+* it lies within the reach of the differentiator or the smoother of a piece's ends.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+import pandas as pd
+
+from hmid.balance.rig import RigSection
+from hmid.balance.signals import Signals, raw
+from hmid.errors import ConfigError
+from hmid.io.log import Log
+from hmid.signal import Differentiator, Smoother
+from hmid.signal.reach import impulse_reach
+
+#: Channel names of the denoised log for the derived signals (raw estimate, smoothed).
+_DERIVED = {"v": ("v", "v_s"), "a": ("a_est", "a_s")}
+
+
+def _frame(rig: RigSection, name: str, piece: Log, segment: int, t0: float) -> dict:
+    columns = {"log": name, "segment": segment, "t": piece.t - t0}
+    for channel in rig.log_channels:
+        columns[raw(channel)], columns[channel] = piece[channel], piece[f"{channel}_s"]
+    if rig.position is not None:
+        for channel, (estimate, smoothed) in _DERIVED.items():
+            columns[raw(channel)], columns[channel] = piece[estimate], piece[smoothed]
+    return columns
+
+
+#: A row is left out when stopped samples weigh this much in its smoothing kernel: its smoothed
+#: force then mixes in at most this share of static friction (indeterminate, up to 2 Fc).
+STOPPED_SHARE = 0.02
+
+
+def _usable(t, v_raw, smoother, ends: int, v_deadband: float, exclude_stuck: bool):
+    usable = np.ones(len(t), dtype=bool)
+    if exclude_stuck and v_raw is not None:
+        stopped = (np.abs(v_raw) < v_deadband).astype(float)
+        usable &= (stopped == 0) & (smoother(t, stopped) <= STOPPED_SHARE)
+    usable[: min(ends, len(usable))] = False
+    usable[max(len(usable) - ends, 0) :] = False
+    return usable
+
+
+def prepare(
+    rig: RigSection,
+    pieces: Mapping[str, list[Log]],
+    units: Mapping[str, str],
+    *,
+    smoother: Smoother,
+    differentiator: Differentiator,
+    free_fall_law: Callable[[np.ndarray], np.ndarray] | None = None,
+    v_deadband: float = 0.002,
+    exclude_stuck: bool = True,
+) -> Signals:
+    """Signals of every dynamic log's pieces (see the module docstring); ``free_fall_law(v)`` is
+    the friction the free-fall tests identified (N, signed with v), for the terms that take it."""
+    frames, segment = [], 0
+    for name, parts in pieces.items():
+        t0 = parts[0].t[0]
+        for piece in parts:
+            columns = _frame(rig, name, piece, segment, t0)
+            smooth_reach = impulse_reach(piece.t, smoother)
+            derivative_reach = (
+                impulse_reach(piece.t, lambda t, y: differentiator.derivative(t, y, 1))
+                if rig.position is not None
+                else 0
+            )
+            columns["usable"] = _usable(
+                piece.t, columns.get(raw("v")), smoother, max(derivative_reach, smooth_reach),
+                v_deadband, exclude_stuck,
+            )  # fmt: skip
+            frames.append(pd.DataFrame(columns))
+            segment += 1
+    if not frames:
+        raise ConfigError("logs: no log has role 'dynamic'; there is nothing to identify")
+    frame = pd.concat(frames, ignore_index=True)
+    frame = frame.assign(target=0.0, train=False, validation=False)
+    signals = Signals(frame, units, rig.model_channels, rig.position, smoother)
+    # on the smoothed signals, as a channel term is: a single channel (a force sensor, an
+    # acceleration) is then exactly its smoothed self
+    explained = np.zeros(len(signals))
+    for value, part in zip(rig.part_values(units), rig.explained.parts, strict=True):
+        values = np.full(len(signals), value)
+        for channel, power in part.powers().items():
+            values = values * signals[channel] ** power
+        explained += values
+    known = np.zeros(len(signals))
+    for term in rig.known:
+        if getattr(term, "source", None) == "free_fall":
+            if free_fall_law is None:
+                raise ConfigError(f"rig.balance: term {term.name!r} needs the free-fall friction")
+            law = free_fall_law(signals[raw(term.channel)])
+            known += term.sign * signals.smooth(law)
+        else:
+            value = rig.term_value(term, units)
+            known += value * term.columns(signals, None).values[:, 0]
+    return signals.with_columns(explained=explained, target=explained - known)

@@ -1,0 +1,181 @@
+"""The rows a force balance is fitted on: every sample of every contiguous segment, in time order.
+
+Columns of :attr:`Signals.frame`:
+
+* ``log`` (name), ``segment`` (integer id of a contiguous piece: a log, or a piece between logger
+  pauses), ``t`` (s since the log's first sample);
+* every model channel **smoothed** by the experiment's zero-phase smoother (the rig's channels,
+  with their declared sign, and ``v``, ``a`` derived from the position channel), and each also
+  unsmoothed as ``raw:<name>`` (``raw:v`` is the differentiator's estimate alone);
+* ``explained``: the measured quantity the balance explains, smoothed by the same filter, and
+  ``target``: that minus every term whose coefficient is known (the free-fall friction, a weighed
+  mass); models of the remaining terms are fitted to ``target``;
+* ``usable`` (direction of motion known, away from filter edges), ``train`` and ``validation``.
+
+The same smoother acts on both sides of the balance, so identified parameters do not depend on
+its window (see :meth:`Signals.smooth`). Rows outside the fitting sets still carry the signals
+that memory and lag terms read, so every column is evaluated on whole segments and then masked.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
+
+import numpy as np
+import pandas as pd
+
+from hmid.errors import ConfigError
+
+REQUIRED = ("log", "segment", "t", "target", "usable", "train", "validation")
+
+
+def raw(channel: str) -> str:
+    """Column name of a channel before smoothing."""
+    return f"raw:{channel}"
+
+
+@dataclass(frozen=True)
+class Signals:
+    """Rows of whole segments; ``units`` maps each channel (and ``target``) to its SI unit;
+    ``channels`` are the model channels (smoothed), ``position`` the one v and a come from;
+    ``smoother`` the zero-phase filter applied to both sides of the balance (None: none)."""
+
+    frame: pd.DataFrame = field(repr=False)
+    units: Mapping[str, str]
+    channels: tuple[str, ...]
+    position: str | None = None
+    smoother: object | None = None  # hmid.signal.Smoother
+    # columns and transformed signals computed from these rows (a new set starts empty)
+    cache: dict = field(default_factory=dict, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        missing = [c for c in (*REQUIRED, *self.channels) if c not in self.frame.columns]
+        if missing:
+            raise ValueError(f"Signals needs columns {missing}")
+        if (self.frame["train"] & self.frame["validation"]).any():
+            raise ValueError("a row cannot be both training and held-out")
+        object.__setattr__(self, "units", MappingProxyType(dict(self.units)))
+
+    @classmethod
+    def from_frame(
+        cls,
+        frame: pd.DataFrame,
+        units: Mapping[str, str],
+        *,
+        position: str | None = None,
+        smoother=None,
+    ) -> Signals:
+        """Signals from a plain table: columns ``log``, ``t`` (per log), one per channel named in
+        ``units`` (which also gives ``target``'s unit) and ``target``; optional ``segment``
+        (default: one per log), ``usable`` (default all), ``train`` and ``validation``
+        (default none) and ``raw:<channel>`` (default: the channel itself)."""
+        channels = tuple(c for c in units if c != "target")
+        out = frame.reset_index(drop=True).copy()
+        if "segment" not in out:
+            out["segment"] = pd.factorize(out["log"])[0]
+        for column, default in (("usable", True), ("train", False), ("validation", False)):
+            if column not in out:
+                out[column] = default
+            out[column] = out[column].astype(bool)
+        for channel in channels:
+            if raw(channel) not in out:
+                out[raw(channel)] = out[channel]
+        return cls(out, units, channels, position, smoother)
+
+    # read-only mappings do not pickle; the stage cache pickles signals
+    def __getstate__(self) -> dict:
+        return self.__dict__ | {"units": dict(self.units), "cache": {}}
+
+    def __setstate__(self, state: dict) -> None:
+        for name, value in state.items():
+            object.__setattr__(self, name, MappingProxyType(value) if name == "units" else value)
+
+    def __len__(self) -> int:
+        return len(self.frame)
+
+    def __getitem__(self, column: str) -> np.ndarray:
+        return self.frame[column].to_numpy()
+
+    def __contains__(self, column: object) -> bool:
+        return column in self.frame.columns
+
+    @property
+    def train(self) -> np.ndarray:
+        return self.frame["train"].to_numpy()
+
+    @property
+    def validation(self) -> np.ndarray:
+        return self.frame["validation"].to_numpy()
+
+    @property
+    def usable(self) -> np.ndarray:
+        return self.frame["usable"].to_numpy()
+
+    @property
+    def target(self) -> np.ndarray:
+        return self.frame["target"].to_numpy()
+
+    def rows(self, role: str) -> np.ndarray:
+        """The mask of ``role``: ``"train"`` or ``"validation"``."""
+        if role not in ("train", "validation"):
+            raise ValueError(f"role must be 'train' or 'validation', got {role!r}")
+        return self.frame[role].to_numpy()
+
+    def segments(self) -> Iterator[np.ndarray]:
+        """Row indices of each segment, in order."""
+        ids = self.frame["segment"].to_numpy()
+        edges = np.flatnonzero(np.diff(ids)) + 1
+        yield from np.split(np.arange(len(ids)), edges)
+
+    @property
+    def dt(self) -> float:
+        """Median sampling step (s) of the first segment."""
+        t = self["t"][:1000]
+        return float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+
+    def smooth(self, values: np.ndarray) -> np.ndarray:
+        """``values`` through the experiment's zero-phase smoother, segment by segment: a term
+        that is not linear in the signals (sign(v), a product) is evaluated first and smoothed
+        after, exactly as the measured force that contains it was."""
+        if self.smoother is None:
+            return np.asarray(values, dtype=float)
+        t, out = self["t"], np.empty(len(self))
+        for rows in self.segments():
+            out[rows] = self.smoother(t[rows], values[rows])
+        return out
+
+    def unit(self, channel: str) -> str:
+        if channel not in self.units:
+            raise ConfigError(
+                f"no unit is known for channel {channel!r}; known: {list(self.units)}"
+            )
+        return self.units[channel]
+
+    # -- derived sets -------------------------------------------------------------------------
+    def with_columns(self, **columns: np.ndarray) -> Signals:
+        return replace(self, frame=self.frame.assign(**columns), cache={})
+
+    def with_roles(self, train: np.ndarray, validation: np.ndarray) -> Signals:
+        usable = self.usable
+        return self.with_columns(train=usable & train, validation=usable & validation)
+
+    def trim(self, start_s: float = 0.0, end_s: float = 0.0) -> Signals:
+        """No fitting or scoring within ``start_s`` of a segment's start or ``end_s`` of its end
+        (a delay, a lead or a memory's warm-up reaches past them); the rows stay for the
+        signals."""
+        if start_s <= 0 and end_s <= 0:
+            return self
+        t = self["t"]
+        keep = np.ones(len(self), dtype=bool)
+        for rows in self.segments():
+            keep[rows] = (t[rows] >= t[rows[0]] + start_s) & (t[rows] <= t[rows[-1]] - end_s)
+        return self.with_columns(
+            usable=self.usable & keep, train=self.train & keep, validation=self.validation & keep
+        )
+
+    def role_frame(self, role: str, columns: tuple[str, ...]) -> pd.DataFrame:
+        """The rows of ``role`` with ``columns`` (plus log and t), in order."""
+        keep = self.rows(role)
+        return self.frame.loc[keep, ["log", "t", *columns]].reset_index(drop=True)

@@ -1,0 +1,263 @@
+"""A balance under test: terms at their hyperparameter values, fitted by least squares.
+
+Fits use the training rows of ``target``; hyperparameters (a relaxation time, a delay) are
+profiled: every grid value of each is tried with the others fixed (coordinate sweeps until none
+moves), then refined continuously between its grid neighbours. :func:`parameters` gives every
+parameter with an interval, the profiled ones included (Gauss-Newton), on the residual's
+effective sample size.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+
+import numpy as np
+import pandas as pd
+
+from hmid.balance.columns import Columns, LeastSquares
+from hmid.balance.signals import Signals
+from hmid.balance.statistics import inference
+from hmid.balance.terms import Term
+from hmid.metrics import Scores, score
+
+
+@dataclass(frozen=True)
+class Placed:
+    """A term at a value of its hyperparameter (None if it has none)."""
+
+    term: Term
+    value: float | None = None
+
+
+@dataclass(frozen=True)
+class Structure:
+    """Terms at their hyperparameter values (each term's columns enter once)."""
+
+    terms: tuple[Placed, ...]
+
+    @classmethod
+    def of(cls, terms, values: dict[int, float] | None = None) -> Structure:
+        """Terms each at ``values[i]``, or at the first value of its grid."""
+        values = values or {}
+        placed = []
+        for i, term in enumerate(terms):
+            hyper = term.hyper
+            placed.append(Placed(term, values.get(i, hyper.grid[0] if hyper else None)))
+        return cls(tuple(placed))
+
+    def plus(self, term: Term, value: float | None = None) -> Structure:
+        return replace(self, terms=(*self.terms, Placed(term, value)))
+
+    def at(self, index: int, value: float | None) -> Structure:
+        terms = list(self.terms)
+        terms[index] = Placed(terms[index].term, value)
+        return replace(self, terms=tuple(terms))
+
+    @property
+    def hypers(self) -> list[int]:
+        """Indices of the terms that have a hyperparameter (profiled)."""
+        return [i for i, p in enumerate(self.terms) if p.term.hyper is not None]
+
+    @property
+    def margins(self) -> tuple[float, float]:
+        starts = [p.term.margins[0] for p in self.terms]
+        ends = [p.term.margins[1] for p in self.terms]
+        return (max(starts, default=0.0), max(ends, default=0.0))
+
+    def seen(self, signals: Signals) -> Signals:
+        """The signals as the terms see them (sensor effects applied, cached per value)."""
+        for placed in self.terms:
+            key = ("transform", placed.term, placed.value)
+            if key not in signals.cache:
+                signals.cache[key] = placed.term.transform(signals, placed.value)
+            signals = signals.cache[key]
+        return signals
+
+    def columns(self, signals: Signals) -> Columns:
+        seen = self.seen(signals)
+        out = Columns.empty(len(signals))
+        for placed in self.terms:
+            key = ("columns", placed.term, placed.value)
+            if key not in seen.cache:
+                seen.cache[key] = placed.term.columns(seen, placed.value)
+            out = out.merge(seen.cache[key])
+        return out
+
+
+@dataclass(frozen=True)
+class StructureFit:
+    """A structure fitted to ``target`` on ``rows``."""
+
+    structure: Structure
+    columns: Columns
+    fit: LeastSquares
+    target: np.ndarray = field(repr=False)
+    rows: np.ndarray = field(repr=False)
+
+    @cached_property
+    def prediction(self) -> np.ndarray:
+        """On every row (fitted on the training rows only)."""
+        return self.fit.predict(self.columns)
+
+    @cached_property
+    def residual(self) -> np.ndarray:
+        return self.target - self.prediction
+
+    @property
+    def params(self) -> dict[str, float]:
+        return dict(zip(self.columns.names, self.fit.coef, strict=True))
+
+    @property
+    def sse(self) -> float:
+        return self.fit.sse
+
+    def scores(self, rows: np.ndarray, kind: str = "one-step") -> Scores:
+        return score(self.target[rows], self.prediction[rows], kind)
+
+
+def fit(structure: Structure, signals: Signals, rows: np.ndarray | None = None) -> StructureFit:
+    """Least squares of ``signals.target`` on the structure's columns over ``rows`` (default
+    the training rows)."""
+    rows = signals.train if rows is None else rows
+    columns = structure.columns(signals)
+    return StructureFit(structure, columns, LeastSquares.fit(columns, signals.target, rows),
+                        signals.target, rows)  # fmt: skip
+
+
+def scan(best: StructureFit, index: int, signals: Signals, rows=None) -> tuple[StructureFit, list]:
+    """Every grid value of term ``index``'s hyperparameter, the others fixed: the best fit and
+    all of them (in grid order)."""
+    grid = best.structure.terms[index].term.hyper.grid
+    fits = [fit(best.structure.at(index, g), signals, rows) for g in grid]
+    found = min(fits, key=lambda f: f.sse)
+    return (found if found.sse < best.sse else best), fits
+
+
+def descend(best: StructureFit, index: int, signals: Signals, rows=None) -> StructureFit:
+    """Term ``index``'s hyperparameter near its current value: walk the grid while the SSE
+    falls (from the nearest grid value, first down then up)."""
+    hyper = best.structure.terms[index].term.hyper
+    grid = np.asarray(hyper.grid)
+    current = best.structure.terms[index].value
+    distance = np.abs(np.log(grid / current)) if hyper.log else np.abs(grid - current)
+    start = int(np.argmin(distance))
+    if grid[start] != current:
+        best = fit(best.structure.at(index, float(grid[start])), signals, rows)
+    origin = best.structure.terms[index].value
+    for step in (-1, 1):
+        j = start + step
+        while 0 <= j < len(grid):
+            trial = fit(best.structure.at(index, float(grid[j])), signals, rows)
+            if trial.sse >= best.sse:
+                break
+            best, j = trial, j + step
+        if best.structure.terms[index].value != origin:
+            break
+    return best
+
+
+def refine(best: StructureFit, signals: Signals, rows=None, *, fixed=()) -> StructureFit:
+    """Every hyperparameter between the grid neighbours of its value (bounded scalar search, in
+    the logarithm for log grids): estimates that trade off against it (a viscous b against the
+    SLS relaxation time) otherwise inherit the grid's resolution as a bias."""
+    from scipy.optimize import minimize_scalar
+
+    for index in best.structure.hypers:
+        hyper = best.structure.terms[index].term.hyper
+        if len(hyper.grid) < 2 or index in fixed:
+            continue
+        grid = np.asarray(hyper.grid)
+        value = best.structure.terms[index].value
+        i = int(np.argmin(np.abs(grid - value)))
+        low, high = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
+        forward, back = (np.log, np.exp) if hyper.log else (float, float)
+
+        def sse(u: float, index=index, back=back, start=best) -> float:
+            return fit(start.structure.at(index, float(back(u))), signals, rows).sse
+
+        found = minimize_scalar(sse, bounds=(forward(low), forward(high)), method="bounded",
+                                options={"xatol": 1e-3})  # fmt: skip
+        trial = fit(best.structure.at(index, float(back(found.x))), signals, rows)
+        if trial.sse < best.sse:
+            best = trial
+    return best
+
+
+def profile(
+    structure: Structure, signals: Signals, rows=None, *, sweeps: int = 3, fixed=()
+) -> StructureFit:
+    """The structure with every hyperparameter (but those of the terms at ``fixed`` indices)
+    profiled over its whole grid (coordinate sweeps, each from the others' current values),
+    then refined."""
+    best = fit(structure, signals, rows)
+    indices = [i for i in best.structure.hypers if i not in fixed]
+    for _ in range(sweeps if len(indices) > 1 else 1):
+        before = [best.structure.terms[i].value for i in indices]
+        for index in indices:
+            best, _ = scan(best, index, signals, rows)
+        if [best.structure.terms[i].value for i in indices] == before:
+            break
+    return refine(best, signals, rows, fixed=fixed)
+
+
+def _sensitivity(fitted: StructureFit, index: int, signals: Signals) -> np.ndarray | None:
+    """d(prediction)/d(hyper) of term ``index`` with the coefficients held fixed (per unit of
+    its logarithm for log grids): a Gauss-Newton column for the joint covariance."""
+    placed = fitted.structure.terms[index]
+    hyper = placed.term.hyper
+    grid = np.asarray(hyper.grid)
+    if hyper.log:
+        h = 1e-3
+        centre = float(np.clip(np.log(placed.value), np.log(grid[0]) + h, np.log(grid[-1]) - h))
+        values = (np.exp(centre + h), np.exp(centre - h))
+    else:
+        h = 1e-3 * float(grid[-1] - grid[0])
+        centre = float(np.clip(placed.value, grid[0] + h, grid[-1] - h))
+        values = (centre + h, centre - h)
+    predictions = []
+    for value in values:
+        columns = fitted.structure.at(index, value).columns(signals)
+        if columns.names != fitted.columns.names:
+            return None
+        predictions.append(columns.values @ fitted.fit.coef)
+    return (predictions[0] - predictions[1]) / (2 * h)
+
+
+def parameters(
+    fitted: StructureFit, signals: Signals, tau_int: float, confidence: float
+) -> pd.DataFrame:
+    """The fitted parameters with intervals (standard errors inflated by tau_int), profiled ones
+    included: their sensitivity columns enter the covariance (Gauss-Newton), so the linear
+    parameters that trade off against them get honest intervals. Columns: parameter, value,
+    std. error, lower, upper, unit, positive."""
+    indices = fitted.structure.hypers
+    extras = {i: _sensitivity(fitted, i, signals) for i in indices}
+    extras = {i: e for i, e in extras.items() if e is not None}
+    columns = fitted.columns
+    if extras:
+        names = tuple(f"sensitivity {i}" for i in extras)
+        columns = columns + Columns(
+            names, ("1",) * len(extras), np.column_stack(list(extras.values()))
+        )
+    table = inference(columns, fitted.target, fitted.rows, tau_int, confidence)
+    width = fitted.columns.width
+    half = (table["upper"] - table["lower"]).to_numpy() / 2
+    value = table["value"].to_numpy().copy()
+    # a sensitivity column's coefficient is a Gauss-Newton step (~0 at the optimum): keep the
+    # fitted values, take the half-widths from the joint covariance
+    value[:width] = fitted.fit.coef
+    table["value"], table["lower"], table["upper"] = value, value - half, value + half
+    table["positive"] = [*fitted.columns.positive, *([False] * len(extras))]
+    for row, index in zip(range(width, width + len(extras)), extras, strict=True):
+        placed = fitted.structure.terms[index]
+        hyper = placed.term.hyper
+        table.loc[row, ["parameter", "unit"]] = [hyper.name, hyper.unit]
+        if hyper.log:
+            log_value = np.log(placed.value)
+            table.loc[row, "std. error"] *= placed.value  # delta method, for reference
+            bounds = np.exp([log_value, log_value - half[row], log_value + half[row]])
+        else:
+            bounds = [placed.value, placed.value - half[row], placed.value + half[row]]
+        table.loc[row, ["value", "lower", "upper"]] = bounds
+    return table.reset_index(drop=True)

@@ -1,0 +1,171 @@
+"""The ``balance`` family: least squares on the rig's declared terms (and, where the rig has a
+model slot, on the slot terms declared here), every profiled parameter profiled over its grid.
+
+Intervals count the residual's effective sample size (see :mod:`hmid.balance.statistics`) and
+include the profiled parameters (Gauss-Newton); every parameter that physics makes positive is
+checked (:func:`hmid.balance.sign_findings`).
+
+Config (``models: [{family: balance, ...}]``)::
+
+    name: balance            # the fitted model's name
+    slot: []                 # the actuator force's terms, if the rig has a {kind: model} slot
+    confidence: 0.95
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Annotated, ClassVar, Literal
+
+import numpy as np
+import pandas as pd
+from pydantic import Field, SerializeAsAny, field_validator
+
+from hmid.balance import (
+    RigSection,
+    Structure,
+    TermSpec,
+    make_term,
+    parameters,
+    profile,
+    residual_tau_int,
+    sign_findings,
+)
+from hmid.balance.kinds import ModelSlot
+from hmid.families.base import FamilySpec, FitContext, FitData, Fitted, FittedModel
+
+
+class BalanceSpec(FamilySpec):
+    """Least squares on the declared balance; see the module docstring."""
+
+    family: Literal["balance"] = "balance"
+    fills_slot: ClassVar[bool] = False
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.:-]+$")] = "balance"
+    slot: tuple[SerializeAsAny[TermSpec], ...] = ()
+    confidence: Annotated[float, Field(gt=0.5, lt=1)] = 0.95
+
+    @field_validator("slot", mode="before")
+    @classmethod
+    def _terms(cls, specs):
+        return tuple(make_term(spec, f"slot.{i}") for i, spec in enumerate(specs or ()))
+
+    @classmethod
+    def example(cls, rig: RigSection) -> BalanceSpec:
+        """The declared terms alone; with a slot, the standard linear solid as its terms."""
+        if rig.slot is None:
+            return cls()
+        x, P = rig.position, "P"
+        return cls(
+            slot=[
+                {"kind": "channel", "name": "A_eff", "channel": P, "positive": True},
+                {"kind": "constant", "name": "F0"},
+                {"kind": "channel", "name": "k1", "channel": x, "sign": -1, "positive": True},
+                {"kind": "memory", "name": "k2", "channel": x, "sign": -1, "positive": True},
+            ]
+        )
+
+    def model_names(self) -> list[str]:
+        return [self.name]
+
+    def check(self, rig: RigSection) -> None:
+        if rig.slot is not None and not self.slot:
+            raise ValueError(
+                f"the rig's balance has a model slot ({rig.slot.name}): declare its terms under "
+                "slot (e.g. the SLS's springs and arm), or fit it with a slot family"
+            )
+        if rig.slot is None and self.slot:
+            raise ValueError("slot terms given, but rig.balance has no {kind: model} slot")
+        names = [t.name for t in (*self.slot, *rig.balance)]
+        repeated = sorted({n for n in names if names.count(n) > 1})
+        if repeated:
+            raise ValueError(f"slot terms share names with the rig's terms: {repeated}")
+        for term in self.slot:
+            if isinstance(term, ModelSlot) or term.known:
+                raise ValueError(f"slot term {term.name!r} must be a fitted term, not {term.kind}")
+            self.channels_needed(rig, term.reads)
+
+    def terms(self, rig: RigSection) -> tuple[TermSpec, ...]:
+        sign = rig.slot.sign if rig.slot is not None else 1
+        slot = tuple(t.model_copy(update={"sign": t.sign * sign}) for t in self.slot)
+        return (*slot, *rig.fitted)
+
+    def fit(self, data: FitData, context: FitContext) -> list[Fitted]:
+        from hmid.models.base import fit_statistics
+
+        structure = Structure.of(self.terms(data.rig))
+        signals = data.signals.trim(*structure.margins)
+        fitted = profile(structure, signals)
+        tau_int = residual_tau_int(fitted.residual, signals)
+        table = parameters(fitted, signals, tau_int, self.confidence)
+        reads = dict(zip(fitted.columns.names, fitted.columns.reads, strict=True))
+        findings = sign_findings(self.name, table, reads, data.rig.position)
+        rows = signals.train
+        n_params = fitted.columns.width + len(fitted.structure.hypers)
+        stats = fit_statistics(signals.target[rows], fitted.prediction[rows], n_params)
+        summary = {"family": self.family, "name": self.name, "n_obs": int(rows.sum()),
+                   "n_params": n_params, "tau_int": tau_int, "n_eff": rows.sum() / tau_int,
+                   "condition_number": None, **stats}  # fmt: skip
+        level = f"{100 * self.confidence:g}%"
+        coefficients = table.rename(
+            columns={"lower": f"ci_low ({level})", "upper": f"ci_high ({level})"}
+        ).drop(columns=["positive"])
+        model = FittedBalance(fitted.structure, fitted.columns.names, fitted.fit.coef.copy())
+        notes = [
+            f"least squares on {int(rows.sum())} rows; intervals on the residual's effective "
+            f"sample size n/τ_int = {rows.sum() / tau_int:.0f} (τ_int = {tau_int:.1f} samples) "
+            "and include the profiled parameters",
+            *(f.message() for f in findings),
+        ]
+        return [
+            Fitted(
+                name=self.name,
+                family=self.family,
+                model=model,
+                kind="one-step",
+                fit_summary=summary,
+                coefficients=coefficients,
+                equation=_equation(data, fitted.structure, table),
+                notes=tuple(notes),
+                findings=findings,
+            )
+        ]
+
+
+@dataclass(frozen=True)
+class FittedBalance(FittedModel):
+    """Terms at their fitted parameters and coefficients ``coef`` (in column order)."""
+
+    fitted: Structure
+    names: tuple[str, ...]
+    coef: np.ndarray
+
+    def predict(self, data: FitData) -> np.ndarray:
+        columns = self.fitted.columns(data.signals)
+        if columns.names != self.names:
+            raise ValueError(f"columns {columns.names} differ from the fitted {self.names}")
+        return (columns.values @ self.coef)[data.rows]
+
+    def structure(self) -> Structure:
+        return self.fitted
+
+
+def _equation(data: FitData, structure: Structure, table: pd.DataFrame) -> str:
+    values = table.set_index("parameter")
+    parts = []
+    for placed in structure.terms:
+        term = placed.term
+        row = values.loc[term.name] if term.name in values.index else None
+        if row is None:
+            continue
+        coef = f"{row['value']:.4g} {row['unit']}"
+        regressor = term.regressor()
+        text = coef if regressor == "1" else f"{coef}·{regressor}"
+        parts.append(("- " if term.sign < 0 else "+ ") + text)
+        if placed.term.hyper is not None:
+            parts[-1] += (
+                f" ({placed.term.hyper.name} = {placed.value:.4g} {placed.term.hyper.unit})"
+            )
+    body = " ".join(parts).removeprefix("+ ")
+    known = [t.name for t in data.rig.known]
+    tail = f"  [known: {', '.join(known)}]" if known else ""
+    return f"{data.rig.explained.name} = {body}{tail}"

@@ -1,1 +1,0 @@
-"""Studies on measured data that go beyond the identification pipeline."""
