@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint demo-data bench blind study clean
+.PHONY: demo test lint demo-data linear-motor-data bench blind study clean
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -29,6 +29,10 @@ lint: $(STAMP)
 demo-data: $(STAMP)
 	$(BIN)/hmid simulate configs/simulate/demo.yaml --out data/demo --replace
 
+## linear-motor-data: regenerate data/linear-motor/ (the linear-motor stage's simulated logs)
+linear-motor-data: $(STAMP)
+	$(BIN)/hmid simulate configs/simulate/linear-motor.yaml --out data/linear-motor --replace
+
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
 
@@ -36,9 +40,11 @@ bench: $(STAMP)
 blind: $(STAMP)
 	$(BIN)/hmid blind configs/blind/full.yaml --workers 2
 
-## study: the loop on the measured pneumatic-cylinder logs (skips if ../shared is absent)
+## study: the pneumatic cylinder's three seals on the measured logs (skips if ../shared is absent)
 study: $(STAMP)
-	$(BIN)/hmid study configs/studies/pneumatic.yaml
+	@if [ -d ../shared/data/pneumatic-friction ]; then \
+	  $(BIN)/hmid sweep configs/sweeps/pneumatic-seals.yaml; \
+	else echo "study skipped: ../shared/data/pneumatic-friction is absent (see README, Real data)"; fi
 
 clean:
 	rm -rf $(VENV)

@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import yaml
+from _rigs import DEMO_RIG
 from _timing import median_time
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -104,7 +105,7 @@ def dataset(folder: Path, duration: float) -> Path:
     experiment = {
         "name": f"scale{int(duration)}",
         "seed": 1,
-        "rig": {"M": 0.25, "m1": 0.5},
+        "rig": DEMO_RIG,
         "logs": logs,
         "friction": {"v_min": 0.05},
         "models": [

@@ -13,10 +13,11 @@ import warnings
 
 import numpy as np
 import pandas as pd
+from _rigs import DEMO_RIG
 from _timing import median_time
 
-from hmid.friction import Coulomb, FrictionEstimate
-from hmid.io.log import RigConstants
+from hmid.balance import RigSection
+from hmid.friction import Coulomb, FallRig, FrictionEstimate
 from hmid.models.sindy import EquationOfMotion, SINDyForceModel, free_run
 from hmid.simulate.params import MuscleParams, RigParams
 from hmid.simulate.profiles import Chirp
@@ -75,9 +76,10 @@ def bench_free_run(rows) -> None:
     frame = truth_frame(30.0)
     train = frame[(~frame["stuck"]) & (frame["t"] < 21)]
     model = SINDyForceModel(keep=()).fit(train[["log", "t", "x", "v", "P"]], train["F_m"])
-    rig = RigConstants(M=RIG.M, m1=RIG.m1, g=RIG.g)
-    friction = FrictionEstimate.known(Coulomb(), {"Fc": RIG.friction.coulomb}, rig)
-    eom = EquationOfMotion.from_estimate(model.force_map(), rig, friction, model.v0)
+    fall = FallRig(RIG.M + RIG.m1, RIG.m1 * RIG.g)
+    friction = FrictionEstimate.known(Coulomb(), {"Fc": RIG.friction.coulomb}, fall)
+    rig = RigSection.model_validate(DEMO_RIG)
+    eom = EquationOfMotion.from_rig(model.force_map(), rig, friction, model.v0)
     sequences = {
         "chirp": frame.assign(
             train=(~frame["stuck"]) & (frame["t"] < 21),
@@ -93,10 +95,10 @@ def bench_free_run(rows) -> None:
 # -- recovery and coverage study ---------------------------------------------------------------
 def sensor_chain(seed: int, smooth_s: float, derivative_s: float) -> pd.DataFrame:
     """Training rows from a thesis-level sensor chain (10-bit ADC + noise), denoised and with F_m
-    reconstructed from the load cell and the true friction."""
+    from the load cell and the true friction (the demo rig's balance, same filter both sides)."""
+    from hmid.balance.prepare import prepare
     from hmid.denoise import denoise_log
     from hmid.experiment import MovingAverageSpec, SavitzkyGolaySpec
-    from hmid.friction import reconstruct_muscle_force
     from hmid.simulate.dataset import DatasetConfig, DynamicLog, simulate_log
 
     profile = {"kind": "chirp", "f0": 0.2, "f1": 3.0}
@@ -104,19 +106,19 @@ def sensor_chain(seed: int, smooth_s: float, derivative_s: float) -> pd.DataFram
         seed=seed, rig=RIG, logs=[DynamicLog(name="chirp", duration=30, profile=profile)]
     )
     log = simulate_log(config, config.logs[0]).log
-    log = denoise_log(
-        log, MovingAverageSpec(window_s=smooth_s).build(),
-        SavitzkyGolaySpec(window_s=derivative_s).build(),
-    )  # fmt: skip
-    friction = FrictionEstimate.known(Coulomb(), {"Fc": RIG.friction.coulomb}, log.rig)
-    log = reconstruct_muscle_force(log, log.rig, friction)
-    frame = pd.DataFrame(
-        {"log": "chirp", "t": log.t, "x": log["x_s"], "v": log["v"], "P": log["P_s"],
-         "F_m": log["F_m"], "sliding": log["sliding"] > 0.5}
-    )  # fmt: skip
+    smoother = MovingAverageSpec(window_s=smooth_s).build()
+    differentiator = SavitzkyGolaySpec(window_s=derivative_s).build()
+    log = denoise_log(log, smoother, differentiator, channels=("x", "P", "F"))
+    fall = FallRig(RIG.M + RIG.m1, RIG.m1 * RIG.g)
+    friction = FrictionEstimate.known(Coulomb(), {"Fc": RIG.friction.coulomb}, fall)
+    units = {"x": "m", "P": "Pa", "F": "N", "v": "m/s", "a": "m/s^2", "target": "N"}
+    signals = prepare(RigSection.model_validate(DEMO_RIG), {"chirp": [log]}, units,
+                      smoother=smoother, differentiator=differentiator,
+                      free_fall_law=friction.friction)  # fmt: skip
+    frame = signals.frame.assign(F_m=signals.target)
     n = len(frame)
     frame = frame.iloc[50 : int(0.7 * n)]
-    return frame[frame["sliding"]]
+    return frame[frame["usable"]]
 
 
 def score(model: SINDyForceModel) -> dict:

@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 
 import yaml
+from _rigs import DEMO_RIG
 
 # hmid is imported inside the functions: the pool's worker processes import this (main) module
 # again, and must not pay for the simulator (JAX) that only the parent needs.
@@ -57,7 +58,7 @@ def workspace(root: Path, variants: int) -> Path:
                            ("ff1", "free_fall"), ("ff2", "free_fall"))
     ]  # fmt: skip
     experiment = {
-        "name": f"bench-{variants}", "seed": 1, "rig": {"M": 0.25, "m1": 0.5}, "logs": logs,
+        "name": f"bench-{variants}", "seed": 1, "rig": DEMO_RIG, "logs": logs,
         "friction": {"v_min": 0.05},
         "models": [{"family": "polynomial", "variants": list(VARIANTS[:variants])}],
     }  # fmt: skip

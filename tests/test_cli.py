@@ -116,3 +116,13 @@ def test_blind_prints_the_pass_marks_and_exits_by_them(tmp_path, capsys):
     assert "clean: an effect added" in out
     assert code == 0, out  # both pass marks met: exit status 0
     assert list((tmp_path / "results" / "tiny").glob("*/blind.md"))
+
+
+def test_run_prints_the_best_model_and_the_loop_with_model_names(tmp_path, capsys):
+    assert main(["run", str(ROOT / "configs/linear-motor.yaml"), "--results", str(tmp_path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert (
+        lines[0].startswith("best model: balance, held-out RMSE ") and "of u (one-step)" in lines[0]
+    )
+    assert lines[1].startswith("loop on balance: ") and "balance" in lines[1].split("RMSE")[1]
+    assert lines[-1].startswith("report: ") and lines[-1].endswith("report.html")

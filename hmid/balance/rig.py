@@ -145,7 +145,9 @@ class RigSection(_Frozen):
             raise ValueError(f"balance terms share names {repeated}; give each its own name")
         if sum(isinstance(t, ModelSlot) for t in self.balance) > 1:
             raise ValueError("at most one {kind: model} slot: one actuator force per balance")
-        explained = set(self.explained.channels)
+        # a logged channel of the explained quantity (a force sensor) is no regressor; a derived
+        # one in a known part (the acceleration of a weighed mass) may be one as well
+        explained = set(self.explained.channels) - set(DERIVED)
         for i, term in enumerate(self.balance):
             reads = set(term.reads)
             unknown = sorted(reads - set(channels))

@@ -218,3 +218,32 @@ def test_bad_calls_are_rejected() -> None:
         SavitzkyGolay(5).derivative(t, np.where(np.arange(50) == 20, np.nan, y))
     with pytest.raises(SignalError, match=r"t\[10\]"):
         SavitzkyGolay(5).derivative(np.r_[t[:10], t[:40]], y)
+
+
+# -- derivatives of the smoothed signal ------------------------------------------------------
+def test_derivatives_of_the_smoothed_signal_see_exactly_its_filter():
+    from hmid.signal import DerivativeOfSmoothed
+
+    t = np.arange(0, 4, 1e-3)
+    w = 2 * np.pi * 5.0
+    smoother = MovingAverage(Window(seconds=0.025), passes=3)
+    diff = DerivativeOfSmoothed(smoother)
+    inner = slice(200, -200)
+    # differencing commutes with the filter: d/dt of the smoothed sine is the smoothed cosine,
+    # up to the central difference's (w dt)^2 / 6 (1e-4 at 5 Hz)
+    v = diff.derivative(t, np.sin(w * t), 1)
+    np.testing.assert_allclose(
+        v[inner], smoother(t, w * np.cos(w * t))[inner], rtol=0, atol=2e-4 * w
+    )
+    a = diff.derivative(t, np.sin(w * t), 2)
+    reference = smoother(t, -(w**2) * np.sin(w * t))
+    np.testing.assert_allclose(a[inner], reference[inner], rtol=0, atol=1e-4 * w**2)
+    assert diff.includes(smoother) and not SavitzkyGolay(Window(51)).includes(smoother)
+
+
+def test_the_second_difference_is_exact_for_a_parabola_on_uneven_steps():
+    from hmid.signal import DerivativeOfSmoothed, Identity
+
+    t = np.cumsum(np.random.default_rng(3).uniform(0.8e-3, 1.2e-3, 500))
+    a = DerivativeOfSmoothed(Identity()).derivative(t, 3.0 * t**2, 2)
+    np.testing.assert_allclose(a[1:-1], 6.0, rtol=1e-6)

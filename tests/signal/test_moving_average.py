@@ -254,3 +254,15 @@ def test_long_signal_with_large_offset_keeps_full_precision() -> None:
     idx = rng.integers(h, y.size - h, size=200)
     exact = np.array([math.fsum(y[i - h : i + h + 1]) / n for i in idx])
     assert np.max(np.abs(out[idx] - exact)) / 1e6 < 1e-12
+
+
+def test_passes_cascade_the_box_into_a_smooth_kernel():
+    t = np.arange(201) * 1e-3
+    impulse = np.zeros(201)
+    impulse[100] = 1.0
+    three = MovingAverage(Window(5), passes=3)(t, impulse)
+    box = np.ones(5) / 5
+    np.testing.assert_allclose(three[94:107], np.convolve(np.convolve(box, box), box), atol=1e-15)
+    assert three.sum() == pytest.approx(1.0)
+    with pytest.raises(SignalError, match="passes must be an integer >= 1"):
+        MovingAverage(Window(5), passes=0)

@@ -1,0 +1,71 @@
+"""One contract, run over every registered family (as scikit-learn's parametrize_with_checks):
+a valid example config fits on the same rows, predicts every row of either role, survives the
+stage cache, reports what it found, and states its terms so that the loop can refit it."""
+
+import json
+import pickle
+
+import numpy as np
+import pytest
+
+from hmid.balance import Structure, profile
+from hmid.families import FAMILIES, FitContext, FitData, FittedModel
+from hmid.metrics import score
+
+
+@pytest.fixture(scope="module")
+def fits(ch4_split):
+    config, split, friction, root = ch4_split
+    signals = split.signals
+    hidden = signals.with_columns(target=np.where(signals.train, signals.target, np.nan))
+    data = FitData(hidden, config.rig)
+    out = {}
+    for name, cls in FAMILIES.items():
+        spec = cls.example(config.rig)
+        spec.check(config.rig)
+        out[name] = (spec, spec.fit(data, FitContext(5, root / name, friction)))
+    return out
+
+
+@pytest.mark.parametrize("family", sorted(FAMILIES))
+def test_every_family_honours_the_fit_contract(family, fits, ch4_split, tmp_path):
+    config, split, _, _ = ch4_split
+    spec, fitted = fits[family]
+    assert type(spec).model_validate(spec.model_dump(mode="json")) == spec  # config round-trip
+    assert [m.name for m in fitted] == spec.model_names() and fitted
+    train, held = (
+        FitData(split.signals, config.rig),
+        FitData(split.signals, config.rig, "validation"),
+    )
+    for model in fitted:
+        assert isinstance(model.model, FittedModel) and model.family == family
+        for data in (train, held):
+            y = model.predict(data)
+            assert y.shape == (int(data.rows.sum()),) and np.isfinite(y).all()
+        json.dumps(model.fit_summary)  # metrics.json
+        assert len(model.coefficients) > 0 and model.equation
+        clone = pickle.loads(pickle.dumps(model))  # the stage cache pickles fitted models
+        np.testing.assert_array_equal(clone.predict(held), model.predict(held))
+        band = model.predict_interval(held)
+        if band is not None:
+            assert np.all(band[0] <= band[1])
+        extras = model.model.report_extras(tmp_path, prefix=model.name.replace(":", "_"))
+        for path, _ in [] if extras is None else extras.figures:
+            assert path.is_file()
+
+
+@pytest.mark.parametrize("family", sorted(FAMILIES))
+def test_every_family_states_terms_the_loop_can_refit(family, fits, ch4_split):
+    """Refitted by least squares (profiled parameters re-profiled), a model's own terms do
+    about as well on held-out rows as the family's fit: the loop's 'before' and its nested
+    tests describe the same model."""
+    config, split, _, _ = ch4_split
+    held = FitData(split.signals, config.rig, "validation")
+    for model in fits[family][1]:
+        structure = model.model.structure()
+        assert isinstance(structure, Structure) and structure.terms
+        signals = split.signals.trim(*structure.margins)
+        refit = profile(structure, signals)
+        own = score(held.y, model.predict(held)).rmse
+        again = refit.scores(signals.validation).rmse
+        assert again <= 1.15 * own + 0.005, (model.name, own, again)
