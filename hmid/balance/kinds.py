@@ -24,19 +24,17 @@ A new kind is one subclass here (it registers itself by its ``kind``).
 
 from __future__ import annotations
 
-import hashlib
-from collections import OrderedDict
 from collections.abc import Mapping
 from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from hmid._messages import format_validation_error
+from hmid._registry import from_registry
 from hmid.balance.columns import Column, Columns
+from hmid.balance.operations import lagged, memory_response
 from hmid.balance.signals import Signals, raw
 from hmid.balance.terms import Hyper, Term, unit_of
-from hmid.errors import ConfigError
 
 TERM_KINDS: dict[str, type[TermSpec]] = {}
 Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=40)]
@@ -324,98 +322,4 @@ class ModelSlot(TermSpec):
 
 def make_term(spec: Mapping[str, Any] | TermSpec, source: str = "rig.balance") -> TermSpec:
     """A term from ``{"kind": ..., ...}``; unknown kinds or keys are one-line ConfigErrors."""
-    if isinstance(spec, TermSpec):
-        return spec
-    if not isinstance(spec, Mapping) or "kind" not in spec:
-        raise ConfigError(f"{source}: each term needs a 'kind', one of {sorted(TERM_KINDS)}")
-    kind = spec["kind"]
-    if kind not in TERM_KINDS:
-        raise ConfigError(f"{source}: term kind {kind!r} is unknown; known: {sorted(TERM_KINDS)}")
-    cls = TERM_KINDS[kind]
-    try:
-        return cls.model_validate(dict(spec))
-    except ValidationError as err:
-        raise ConfigError(format_validation_error(err, source, cls)) from None
-
-
-# -- signal operations shared with the loop's candidates ------------------------------------------
-_ARMS: OrderedDict[tuple, np.ndarray] = OrderedDict()
-_ARMS_KEPT = 8
-
-
-def _arms_key(signals: Signals, channel: str, grid: tuple[float, ...]) -> tuple:
-    digest = hashlib.sha1(signals["t"].tobytes())
-    digest.update(signals[channel].tobytes())
-    digest.update(signals["segment"].tobytes())
-    return (digest.hexdigest(), grid)
-
-
-def memory_arms(signals: Signals, channel: str, grid: tuple[float, ...]) -> np.ndarray:
-    """g_tau(channel) for every tau of ``grid``, shape (len(grid), n), one scan per segment.
-    Kept for the last few (signals, grid) pairs: profiling asks for the same arms many times,
-    and a sensor effect on another channel does not change them."""
-    key = _arms_key(signals, channel, grid)
-    if key in _ARMS:
-        _ARMS.move_to_end(key)
-        return _ARMS[key]
-    import jax
-    import jax.numpy as jnp
-
-    from hmid.signal.maxwell import unit_response
-
-    t, x = signals["t"], signals[channel]
-    out = np.empty((len(grid), len(signals)))
-    with jax.enable_x64(True):
-        for rows in signals.segments():
-            start = np.zeros(len(rows), dtype=bool)
-            start[0] = True
-            response = unit_response(
-                jnp.asarray(t[rows]), jnp.asarray(x[rows]), jnp.asarray(start), jnp.asarray(grid)
-            )
-            out[:, rows] = np.asarray(response).T
-    _ARMS[key] = out
-    while len(_ARMS) > _ARMS_KEPT:
-        _ARMS.popitem(last=False)
-    return out
-
-
-def memory_response(signals: Signals, channel: str, tau: float, hyper: Hyper | None) -> np.ndarray:
-    """g_tau(channel): a grid row, or between grid points cubic (Lagrange) interpolation in
-    ln tau over the four nearest rows (g is smooth in tau: on a grid of ratio 1.17 this is within
-    ~3e-5 of the exact scan, relative to the arm's range); off any grid, an exact scan."""
-    if hyper is None or len(hyper.grid) < 4:
-        return memory_arms(signals, channel, (float(tau),))[0]
-    log_grid = np.log(np.asarray(hyper.grid))
-    lt = np.log(tau)
-    if not log_grid[0] - 1e-12 <= lt <= log_grid[-1] + 1e-12:
-        raise ValueError(f"tau={tau} s lies outside the grid [{hyper.grid[0]}, {hyper.grid[-1]}]")
-    arms = memory_arms(signals, channel, hyper.grid)
-    index = int(np.argmin(np.abs(log_grid - lt)))
-    if abs(log_grid[index] - lt) < 1e-12:
-        return arms[index]
-    first = int(np.clip(np.searchsorted(log_grid, lt) - 2, 0, len(log_grid) - 4))
-    nodes = range(first, first + 4)
-    weights = [
-        np.prod([(lt - log_grid[k]) / (log_grid[j] - log_grid[k]) for k in nodes if k != j])
-        for j in nodes
-    ]
-    return np.tensordot(weights, arms[first : first + 4], axes=1)
-
-
-def lagged(signals: Signals, values: np.ndarray, time: float, kind: str) -> np.ndarray:
-    """``values`` delayed by ``time`` (held at the first value before a segment starts; a
-    negative time is a lead, held at the last value) or through a first-order lag of time
-    constant ``time`` from steady state, per segment."""
-    if time == 0:
-        return np.asarray(values, dtype=float)
-    t, out = signals["t"], np.empty(len(signals))
-    for rows in signals.segments():
-        if kind == "delay":
-            out[rows] = np.interp(t[rows] - time, t[rows], values[rows])
-        else:
-            from scipy.signal import lfilter
-
-            alpha = 1.0 - np.exp(-np.median(np.diff(t[rows])) / time)
-            y = values[rows]
-            out[rows] = lfilter([alpha], [1.0, alpha - 1.0], y, zi=[(1.0 - alpha) * y[0]])[0]
-    return out
+    return from_registry(spec, TermSpec, TERM_KINDS, tag="kind", what="term kind", source=source)

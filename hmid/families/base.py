@@ -18,11 +18,10 @@ from typing import Any, ClassVar
 
 import numpy as np
 import pandas as pd
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, ConfigDict
 
-from hmid._messages import format_validation_error
+from hmid._registry import from_registry
 from hmid.balance import RigSection, Signals, SignFinding, Structure
-from hmid.errors import ConfigError
 
 FAMILIES: dict[str, type[FamilySpec]] = {}
 
@@ -174,15 +173,4 @@ class FamilySpec(BaseModel):
 
 def make_family(spec: Mapping[str, Any] | FamilySpec, source: str = "models") -> FamilySpec:
     """A family config from ``{"family": name, ...}``; unknown families or keys are ConfigErrors."""
-    if isinstance(spec, FamilySpec):
-        return spec
-    if not isinstance(spec, Mapping) or "family" not in spec:
-        raise ConfigError(f"{source}: each entry needs a 'family', one of {sorted(FAMILIES)}")
-    name = spec["family"]
-    if name not in FAMILIES:
-        raise ConfigError(f"{source}: family {name!r} is unknown; known: {sorted(FAMILIES)}")
-    cls = FAMILIES[name]
-    try:
-        return cls.model_validate(dict(spec))
-    except ValidationError as err:
-        raise ConfigError(format_validation_error(err, source, cls)) from None
+    return from_registry(spec, FamilySpec, FAMILIES, tag="family", what="family", source=source)

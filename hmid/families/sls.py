@@ -29,8 +29,6 @@ from hmid.families.base import Extras, FamilySpec, FitContext, FitData, Fitted, 
 
 PREDICT_BATCH = 25  # posterior draws predicted at once for the band
 KIND = "one-step, with memory"  # force from measured x, P and the memory that x implies
-#: tau grid of the least-squares structure (1 ms to 10 s, ratio 1.17 between points)
-TAU_GRID = {"min": 1e-3, "max": 10.0, "points": 60}
 
 
 class SLSSpec(FamilySpec):
@@ -82,27 +80,15 @@ class SLSSpec(FamilySpec):
 
     def structure(self, rig: RigSection, taus: tuple[float, ...] | None = None) -> Structure:
         """The SLS as balance terms (sign of the slot built in), tau profiled on a grid."""
-        from hmid.balance.kinds import ChannelTerm, ConstantTerm, Grid, MemoryTerm
+        from hmid.models.sls.terms import TAU_GRID, sls_terms
 
-        s, x = rig.slot.sign, rig.position
-        grid = Grid(**TAU_GRID)
-        terms = [
-            ChannelTerm(name="A_eff", channel=self.pressure, sign=s, positive=True),
-            ConstantTerm(name="F0", sign=s),
-            ChannelTerm(name="k1", channel=x, sign=-s, positive=True),
-        ]
-        if self.spring == "cubic":
-            terms.append(ChannelTerm(name="k3", channel=f"{x}^3", sign=-s, positive=True))
-        names = ["k2"] if self.arms == 1 else [f"k2_{i}" for i in range(1, self.arms + 1)]
-        for name in names:
-            terms.append(MemoryTerm(name=name, channel=x, sign=-s, positive=True, tau=grid,
-                                    warmup_s=self.memory_warmup_s))  # fmt: skip
+        terms = sls_terms(self.spring, self.arms, position=rig.position, pressure=self.pressure,
+                          sign=rig.slot.sign, warmup_s=self.memory_warmup_s)  # fmt: skip
         values = {}
         if taus is not None:
             first = len(terms) - self.arms
-            values = {
-                first + i: float(np.clip(tau, grid.min, grid.max)) for i, tau in enumerate(taus)
-            }
+            bounded = (float(np.clip(tau, TAU_GRID.min, TAU_GRID.max)) for tau in taus)
+            values = {first + i: tau for i, tau in enumerate(bounded)}
         return Structure.of(terms, values)
 
     def _segments(self, data: FitData, role: str, stride: int | None = None) -> list[pd.DataFrame]:

@@ -3,10 +3,11 @@ computes what its docstring says (checked against closed forms)."""
 
 import numpy as np
 import pytest
-from conftest import motion, signals_with
+from _balance_data import motion, signals_with
 
 from hmid.balance import TERM_KINDS, ModelSlot, make_term
-from hmid.balance.kinds import Grid, LagTerm, MemoryTerm, memory_arms
+from hmid.balance.kinds import Grid, LagTerm, MemoryTerm
+from hmid.balance.operations import memory_arms
 from hmid.errors import ConfigError
 
 KINDS = sorted(k for k in TERM_KINDS if k != "model")

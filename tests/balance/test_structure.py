@@ -3,10 +3,10 @@ refined, intervals that include them, identical columns entered once."""
 
 import numpy as np
 import pytest
-from conftest import signals_with
+from _balance_data import signals_with
 
 from hmid.balance import Structure, fit, make_term, parameters, profile, residual_tau_int
-from hmid.balance.kinds import memory_arms
+from hmid.balance.operations import memory_arms
 
 NOISE = 0.01  # N
 
@@ -40,7 +40,7 @@ def test_a_relaxation_time_is_profiled_and_every_parameter_covered():
 def test_two_profiled_parameters_are_found_by_coordinate_sweeps():
     signals = signals_with()
     g = memory_arms(signals, "x", (0.15,))[0]
-    from hmid.balance.kinds import lagged
+    from hmid.balance.operations import lagged
 
     delayed = lagged(signals, signals["P"], 0.03, "delay")
     noise = np.random.default_rng(1).normal(0, NOISE, len(signals))

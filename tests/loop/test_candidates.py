@@ -3,7 +3,7 @@ signs from the rig's declared friction sign (never from a fit), and what it need
 
 import numpy as np
 import pytest
-from conftest import make_data
+from _loop_data import make_data
 
 from hmid.loop.candidates import CANDIDATES, ELASTIC, Setting
 

@@ -1,7 +1,7 @@
 """Residual diagnostics: noise shows no structure, a dependence on a signal does."""
 
 import numpy as np
-from conftest import make_data
+from _loop_data import make_data
 
 from hmid.loop.diagnostics import diagnose, structure_scan
 

@@ -4,7 +4,7 @@ import re
 
 import numpy as np
 import pytest
-from conftest import loop_on
+from _loop_data import loop_on
 
 from hmid.loop import LoopSpec
 

@@ -7,7 +7,7 @@ from typing import ClassVar
 import numpy as np
 
 from hmid.balance import Signals, raw
-from hmid.balance.kinds import lagged
+from hmid.balance.operations import lagged
 from hmid.loop.candidates._base import Candidate, hyper, stack
 
 _DRIFT_TIMES = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 1000.0)

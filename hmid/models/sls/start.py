@@ -4,7 +4,8 @@ For fixed relaxation times the mean force is *linear* in the other parameters,
 
     F = A_eff P + F0 - k1 x - k3 x³ - sum_i k2_i g_{tau_i}(x),
 
-where g_tau is the arm force per unit k2 (:mod:`._recursion`). :func:`initial_fit` therefore
+where g_tau is the arm force per unit k2 (:mod:`hmid.signal.maxwell`); the design is the SLS's
+terms (:func:`.terms.sls_terms`), the one place it is written. :func:`initial_fit` therefore
 
 1. evaluates g_tau on a log-spaced grid (1 ms to 10 s, 40 points by default) and, for every grid
    point (every increasing m-tuple of a thinned grid for m arms), solves the linear least squares
@@ -43,7 +44,7 @@ from hmid.models.sls import likelihood as _lik
 from hmid.models.sls._data import SLSData
 from hmid.models.sls._space import PRIOR_SD, SLSSpace
 from hmid.models.sls.model import SLSModel
-from hmid.signal.maxwell import unit_response
+from hmid.models.sls.terms import sls_terms
 
 MAX_TUPLES = 2000  # grid tuples examined for several arms (the grid is thinned to stay below)
 PHI_START_MAX = 0.95
@@ -74,11 +75,6 @@ class StartResult:
     notes: tuple[str, ...] = field(default=())
 
 
-@jax.jit
-def _grid_responses(data: SLSData, grid: jax.Array) -> jax.Array:
-    return unit_response(data.t, data.x, data.start, grid)
-
-
 def _tau_tuples(grid: np.ndarray, arms: int) -> np.ndarray:
     """Increasing ``arms``-tuples of (a thinned) grid, as indices, shape (T, arms)."""
     size = len(grid)
@@ -88,13 +84,23 @@ def _tau_tuples(grid: np.ndarray, arms: int) -> np.ndarray:
     return np.array(list(itertools.combinations(keep, arms)), dtype=int).reshape(-1, arms)
 
 
-def _linear_design(space: SLSSpace, data: SLSData) -> tuple[np.ndarray, list[str]]:
-    x, P = np.asarray(data.x), np.asarray(data.P)
-    columns, names = [P, np.ones_like(x), -x], ["A_eff", "F0", "k1"]
-    if space.spring == "cubic":
-        columns.append(-(x**3))
-        names.append("k3")
-    return np.stack(columns, axis=1), names
+def _design(space: SLSSpace, data: SLSData, grid: np.ndarray):
+    """The SLS's terms (:func:`.terms.sls_terms`) on ``data``: the columns of those without a
+    relaxation time, their names, and an arm's column (its sign built in) for every tau."""
+    import pandas as pd
+
+    from hmid.balance import Signals, Structure
+    from hmid.balance.operations import memory_arms
+
+    segment = np.cumsum(np.asarray(data.start)) - 1
+    frame = pd.DataFrame({"log": segment, "segment": segment, "t": np.asarray(data.t),
+                          "x": np.asarray(data.x), "P": np.asarray(data.P),
+                          "target": np.asarray(data.F), "train": np.asarray(data.use)})  # fmt: skip
+    signals = Signals.from_frame(frame, {"x": "m", "P": "Pa", "target": "N"}, position="x")
+    terms = sls_terms(space.spring, space.arms)
+    linear = Structure.of([t for t in terms if t.hyper is None]).columns(signals)
+    arms = -memory_arms(signals, "x", tuple(float(g) for g in grid)).T  # k2 enters as -k2 g
+    return linear.values, list(linear.names), arms
 
 
 def _lstsq_scaled(design: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -108,13 +114,11 @@ def _grid_search(space: SLSSpace, data: SLSData, grid: np.ndarray):
     """Best tau tuple on the grid and the linear coefficients there."""
     used = np.asarray(data.use)
     y = np.asarray(data.F)[used]
-    with jax.enable_x64(True):
-        g = np.asarray(_grid_responses(data, jnp.asarray(grid, dtype=jnp.float64)))[used]
-    base, names = _linear_design(space, data)
-    base = base[used]
+    base, names, g = _design(space, data, grid)
+    base, g = base[used], g[used]
     q, _ = np.linalg.qr(base / np.maximum(np.linalg.norm(base, axis=0), 1e-300))
     y_perp = y - q @ (q.T @ y)
-    arms = -g - q @ (q.T @ -g)  # columns of the k2's, spring and pressure projected out
+    arms = g - q @ (q.T @ g)  # columns of the k2's, spring and pressure projected out
     norms = np.linalg.norm(arms, axis=0)
     norms[norms == 0] = 1.0
     arms_n = arms / norms
@@ -130,7 +134,7 @@ def _grid_search(space: SLSSpace, data: SLSData, grid: np.ndarray):
     pool = np.flatnonzero(feasible) if feasible.any() else np.arange(len(tuples))
     best = int(pool[np.argmin(sse[pool])])
     chosen = tuples[best]
-    coef = _lstsq_scaled(np.concatenate([base, -g[:, chosen]], axis=1), y)
+    coef = _lstsq_scaled(np.concatenate([base, g[:, chosen]], axis=1), y)
     linear = dict(zip(names, coef[: len(names)], strict=True))
     return grid[tuples], sse, best, linear, coef[len(names) :], grid[chosen]
 

@@ -1,8 +1,7 @@
-"""Synthetic signals for the balance tests: known x(t), v, a, P on a few segments."""
+"""Synthetic signals for the balance tests (imported by name): known x(t), v, a, P per segment."""
 
 import numpy as np
 import pandas as pd
-import pytest
 
 from hmid.balance import Signals
 
@@ -46,8 +45,3 @@ def signals_with(target: np.ndarray | None = None, seed: int = 0, **kw) -> Signa
     frame = motion(seed, **kw)
     frame["target"] = 0.0 if target is None else target
     return Signals.from_frame(frame, UNITS, position="x")
-
-
-@pytest.fixture
-def synthetic():
-    return signals_with
