@@ -16,9 +16,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pydantic import ValidationError
-
-from hmid._messages import format_validation_error
 from hmid.config import read_yaml
 from hmid.errors import ConfigError
 from hmid.files import sha256
@@ -76,20 +73,14 @@ def _absolute_logs(data: dict[str, Any], folder: Path) -> dict[str, Any]:
 
 
 def _resolve(sweep: SweepConfig, base: dict[str, Any], run: PlannedRun, hashes: dict) -> PlannedRun:
-    from hmid.experiment import ExperimentConfig
+    from hmid.experiment import experiment_from
 
     data = _absolute_logs(apply_overrides(base, run.overrides), sweep.base_dir)
-    try:
-        config = ExperimentConfig.model_validate(data)
-    except ValidationError as err:
-        message = format_validation_error(err, f"run {run.number}", ExperimentConfig)
-        raise ConfigError(message) from None
+    config = experiment_from(data, f"run {run.number}", sweep.base_dir)
     inputs = []
-    for i, entry in enumerate(config.logs):
+    for entry in config.logs:
         for key in ("path", "columns"):
             path = getattr(entry, key)
-            if not path.is_file():
-                raise ConfigError(f"run {run.number}: key 'logs.{i}.{key}': no file {path}")
             if path not in hashes:
                 hashes[path] = sha256(path)
             inputs.append(hashes[path])

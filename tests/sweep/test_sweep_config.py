@@ -106,7 +106,9 @@ def test_plan_resolves_paths_per_file_and_reports_invalid_runs(workspace, sweep_
     assert len({first.run_id, second.run_id}) == 2 and len(first.run_id) == 12
     assert negative.run_id is None
     assert negative.error.startswith("run 3: key 'denoise.smoother.window_s': input should be")
-    assert missing.error == f"run 4: key 'logs.1.path': no file {workspace / 'data/missing.csv'}"
+    assert missing.error.startswith(
+        f"run 4: key 'logs.1.path': file {workspace / 'data/missing.csv'} does not exist"
+    )
     assert "key 'denoise.smoothr': unknown key" in typo.error
     assert [r.number for r in plan.pending] == [1, 2]
     assert plan.folder == (tmp_path / "results/plan").resolve() and not plan.folder.exists()
