@@ -41,8 +41,9 @@ from hmid.runs import open_run
 from hmid.sweep import open_executor
 
 
-def check_template(template: dict, source: str) -> None:
-    """The experiment template is valid with logs filled in (before any case runs)."""
+def check_template(template: dict, source: str, suite=None) -> None:
+    """The experiment template is valid with logs filled in, and the suite's expected effects
+    are candidates its rig is offered (before any case runs)."""
     try:
         rig = RigSection.model_validate(template.get("rig"))
     except ValidationError as err:
@@ -55,6 +56,11 @@ def check_template(template: dict, source: str) -> None:
         raise ConfigError(format_validation_error(err, source, ExperimentConfig)) from None
     if config.loop is None:
         raise ConfigError(f"{source}: the experiment template needs a 'loop' section")
+    if suite is not None:
+        from hmid.loop import Setting
+
+        offered = set(config.loop.candidate_names(Setting.of(config.rig)))
+        suite.check_expectations(offered, f"{source} (loop.candidates)")
 
 
 def run_case(case: Case, dataset: dict, experiment: dict, source: str) -> dict[str, Any]:
@@ -88,7 +94,7 @@ def run(
     dataset_path, experiment_path = suite.resolve(suite.dataset), suite.resolve(suite.experiment)
     dataset = yaml.safe_load(dataset_path.read_text(encoding="utf-8"))
     experiment = yaml.safe_load(experiment_path.read_text(encoding="utf-8"))
-    check_template(experiment, str(experiment_path))  # template errors first, in one line
+    check_template(experiment, str(experiment_path), suite)  # template errors first, in one line
     resolved = json.dumps(suite.model_dump(mode="json", exclude={"base_dir"}), sort_keys=True)
     with open_run(results, suite.name, Path(suite_path), resolved, suite.seed,
                   [dataset_path, experiment_path], copy_as="suite.yaml") as folder:  # fmt: skip
@@ -130,7 +136,10 @@ def _markdown(suite, table: pd.DataFrame, targets: pd.DataFrame) -> str:
     return (
         f"# Blind suite {suite.name}\n\n"
         f"{suite.seeds} seeds per effect and strength, {suite.clean_seeds} clean controls. "
-        "Held-out RMSE is one-step, median over the runs; 'right first' is the share of runs "
-        "whose first added effect is the expected candidate.\n\n"
+        "Held-out RMSE is one-step, median over the runs, on rows no decision of the loop saw; "
+        "'right first' is the share of runs whose first added effect is an expected candidate, "
+        "alone or in a set the loop calls indistinguishable on the data; 'confidently wrong' is "
+        "the share whose first effect is a single unexpected name (any name on clean data or for "
+        "an effect outside the library).\n\n"
         f"{markdown_table(table)}\n\n## Pass marks\n\n{markdown_table(targets)}\n"
     )

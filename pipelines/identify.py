@@ -52,6 +52,16 @@ def analyse(config: ExperimentConfig, stages: tuple[str, ...], cache: Path, *, f
     return Runner(cache, force=force).run([s for s in STAGES if s.name in needed], config)
 
 
+def findings(artifacts: dict) -> list[str]:
+    """What the run must say on the console: physical signs that fail, a friction law that the
+    free falls reject."""
+    out = [finding.message() for model in artifacts["fit"] for finding in model.findings]
+    law = artifacts["friction"].law if artifacts.get("friction") is not None else None
+    if law is not None and law.rejected:
+        out.append(law.message())
+    return out
+
+
 def run(
     config_path: Path, *, results: Path = Path("results"), force: bool = False
 ) -> tuple[Path, dict]:
@@ -64,9 +74,8 @@ def run(
         artifacts = runner.run(STAGES, config)
         folder.manifest.stages = {name: r.wall_s for name, r in runner.records.items()}
         folder.manifest.cache = {name: r.cached for name, r in runner.records.items()}
-        for model in artifacts["fit"]:  # said on every run, the cached ones too
-            for finding in model.findings:
-                warnings.warn(finding.message(), HmidWarning, stacklevel=2)
+        for message in findings(artifacts):  # said on every run, the cached ones too
+            warnings.warn(message, HmidWarning, stacklevel=2)
         with folder.manifest.stage("report"):
             metrics = write_outputs(config, artifacts, folder.path, folder.provenance())
     return folder.path, metrics

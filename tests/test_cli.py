@@ -106,13 +106,13 @@ def test_blind_prints_the_pass_marks_and_exits_by_them(tmp_path, capsys):
         f"name: tiny\nseed: 3\ndataset: {blind / 'dataset.yaml'}\n"
         f"experiment: {blind / 'experiment.yaml'}\nseeds: 1\nclean_seeds: 1\n"
         "executor: {kind: process, workers: 1}\n"
-        "effects:\n  - {kind: pressure_lag, expect: pressure_lag, "
+        "effects:\n  - {kind: pressure_lag, expect: delay.P, "
         "strengths: {moderate: {delay: 0.03}}}\n",
         encoding="utf-8",
     )
     code = main(["blind", str(suite), "--results", str(tmp_path / "results"), "--quiet"])
     out = capsys.readouterr().out
-    assert "pressure_lag (moderate): pressure_lag named first" in out
+    assert "pressure_lag (moderate): delay.P named first" in out
     assert "clean: an effect added" in out
     assert code == 0, out  # both pass marks met: exit status 0
     assert list((tmp_path / "results" / "tiny").glob("*/blind.md"))

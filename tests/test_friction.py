@@ -168,6 +168,25 @@ def test_coulomb_fit_to_viscous_data_shows_in_the_residuals(viscous_falls):
     assert est.per_log[0].durbin_watson < 0.5  # structured residuals: the model is missing a term
 
 
+def test_the_law_check_rejects_coulomb_on_viscous_falls_and_names_the_fix(viscous_falls):
+    est = identify_friction([s.log for s in viscous_falls], RIG, Coulomb(), differentiator=DIFF)
+    law = est.law
+    assert law.rejected and law.viscous and law.f_p < 1e-6 and law.runs_p < 0.01
+    assert law.b_ci[0] < 5.0 < law.b_ci[1]  # the viscous coefficient the level absorbed
+    assert "friction.model: coulomb_viscous" in law.message()
+    assert est.to_dict()["law_check"]["rejected"] is True
+    right = identify_friction(
+        [s.log for s in viscous_falls], RIG, CoulombViscous(), differentiator=DIFF
+    )
+    assert not right.law.rejected  # the right law leaves runs of chance length
+
+
+def test_the_law_check_accepts_coulomb_falls(demo_falls):
+    est = identify_friction([s.log for s in demo_falls], RIG, Coulomb(), differentiator=DIFF)
+    assert not est.law.rejected and est.law.message() == ""
+    assert est.law.f_p > 0.01 and est.law.runs_p > 0.01
+
+
 def test_coulomb_viscous_on_coulomb_data_has_b_interval_around_zero():
     """Regression: finite-difference Jacobians made the b interval ~4x too narrow near b = 0."""
     logs = [_free_fall(s, duration=0.4, x0=0.19).log for s in range(200, 210)]

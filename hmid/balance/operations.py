@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 from collections import OrderedDict
+from functools import cache
 
 import numpy as np
 
@@ -15,10 +16,24 @@ _ARMS_KEPT = 8
 
 
 def _arms_key(signals: Signals, channel: str, grid: tuple[float, ...]) -> tuple:
-    digest = hashlib.sha1(signals["t"].tobytes())
-    digest.update(signals[channel].tobytes())
-    digest.update(signals["segment"].tobytes())
-    return (digest.hexdigest(), grid)
+    found = signals.cache.get(("digest", channel))
+    if found is None:  # hashing the rows costs more than a cached lookup: once per signals
+        digest = hashlib.sha1(signals["t"].tobytes())
+        digest.update(signals[channel].tobytes())
+        digest.update(signals["segment"].tobytes())
+        found = signals.cache[("digest", channel)] = digest.hexdigest()
+    return (found, grid)
+
+
+@cache
+def _compiled_response():
+    """The Maxwell-arm scan, compiled once per shape: eagerly, each call would trace and compile
+    its scan anew (tens of milliseconds, thousands of times while profiling a delay)."""
+    import jax
+
+    from hmid.signal.maxwell import unit_response
+
+    return jax.jit(unit_response)
 
 
 def memory_arms(signals: Signals, channel: str, grid: tuple[float, ...]) -> np.ndarray:
@@ -32,8 +47,7 @@ def memory_arms(signals: Signals, channel: str, grid: tuple[float, ...]) -> np.n
     import jax
     import jax.numpy as jnp
 
-    from hmid.signal.maxwell import unit_response
-
+    unit_response = _compiled_response()
     t, x = signals["t"], signals[channel]
     out = np.empty((len(grid), len(signals)))
     with jax.enable_x64(True):

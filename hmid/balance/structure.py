@@ -76,13 +76,16 @@ class Structure:
 
     def columns(self, signals: Signals) -> Columns:
         seen = self.seen(signals)
-        out = Columns.empty(len(signals))
+        parts = []
         for placed in self.terms:
             key = ("columns", placed.term, placed.value)
             if key not in seen.cache:
                 seen.cache[key] = placed.term.columns(seen, placed.value)
-            out = out.merge(seen.cache[key])
-        return out
+            parts.append((key, seen.cache[key], placed.term.refines))
+        # whether a column is in another's span shows on any few thousand rows
+        rows = np.flatnonzero(signals.usable)
+        rows = rows[:: max(1, len(rows) // 4000)]
+        return Columns.combine(len(signals), parts, rows, seen.cache)
 
 
 @dataclass(frozen=True)
@@ -136,14 +139,18 @@ def scan(best: StructureFit, index: int, signals: Signals, rows=None) -> tuple[S
 
 def descend(best: StructureFit, index: int, signals: Signals, rows=None) -> StructureFit:
     """Term ``index``'s hyperparameter near its current value: walk the grid while the SSE
-    falls (from the nearest grid value, first down then up)."""
+    falls (from the nearest grid value, first down then up); never worse than ``best``."""
     hyper = best.structure.terms[index].term.hyper
     grid = np.asarray(hyper.grid)
     current = best.structure.terms[index].value
     distance = np.abs(np.log(grid / current)) if hyper.log else np.abs(grid - current)
     start = int(np.argmin(distance))
     if grid[start] != current:
-        best = fit(best.structure.at(index, float(grid[start])), signals, rows)
+        # a refined value between grid points stays unless a grid point fits better: snapping
+        # a sharply determined relaxation time to its grid would cost more than the walk gains
+        trial = fit(best.structure.at(index, float(grid[start])), signals, rows)
+        if trial.sse < best.sse:
+            best = trial
     origin = best.structure.terms[index].value
     for step in (-1, 1):
         j = start + step
@@ -256,7 +263,8 @@ def parameters(
         if hyper.log:
             log_value = np.log(placed.value)
             table.loc[row, "std. error"] *= placed.value  # delta method, for reference
-            bounds = np.exp([log_value, log_value - half[row], log_value + half[row]])
+            with np.errstate(over="ignore"):  # an unidentified parameter: an unbounded interval
+                bounds = np.exp([log_value, log_value - half[row], log_value + half[row]])
         else:
             bounds = [placed.value, placed.value - half[row], placed.value + half[row]]
         table.loc[row, ["value", "lower", "upper"]] = bounds

@@ -73,6 +73,8 @@ class Term(ABC):
     # subclasses, as fields or class attributes
     title: ClassVar[str] = ""
     physics: ClassVar[str] = ""
+    #: whether the term refines earlier ones: their columns that its own span are dropped
+    refines: ClassVar[bool] = False
 
     @property
     def hyper(self) -> Hyper | None:

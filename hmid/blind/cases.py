@@ -20,7 +20,8 @@ class Case:
     index: int
     seed: int
     params: dict[str, float]
-    expect: str | None  # the candidate that should be named first; None: none should be claimed
+    # the candidates that count as right when named first; None: none should be claimed
+    expect: tuple[str, ...] | None
     compare: dict[str, str] = field(default_factory=dict)  # loop parameter -> simulator one
 
     def to_dict(self) -> dict[str, Any]:
@@ -48,7 +49,7 @@ def plan_cases(suite: BlindSuite) -> list[Case]:
                         i,
                         _seed(suite.seed, effect.kind, strength, i),
                         dict(params),
-                        effect.expect,
+                        tuple(effect.expect) if effect.expect is not None else None,
                         dict(effect.compare),
                     )
                 )
@@ -90,19 +91,28 @@ def _default(kind: str, name: str) -> float:
 
 def outcome(case: Case, result) -> dict[str, Any]:
     """What the loop concluded on ``case`` (a :class:`hmid.loop.LoopResult`), and whether that
-    was right."""
+    was right: the first effect, or the "indistinguishable" set it heads, holds an expected
+    name; "confidently wrong" is a single first name that is not expected (any name, on clean
+    data or for an effect outside the library)."""
     added = [e.name for e in result.effects]
-    first = added[0] if added else None
+    named = result.first_named
+    expect = set(case.expect or ())
     row = case.to_dict() | {
-        "first": first,
+        "expect": " | ".join(case.expect) if case.expect else None,
+        "first": added[0] if added else None,
+        "first named": " | ".join(named),
+        "indistinguishable": len(named) > 1,
+        "confidently wrong": len(named) == 1 and named[0] not in expect,
         "added": " + ".join(added),
         "verdict": result.verdict,
         "rmse before [N]": result.before.rmse,
         "rmse after [N]": result.after.rmse,
     }
-    if case.compare and first is not None and first == case.expect:
+    if case.compare and added and added[0] in expect:
         table = result.effects[0].parameters.set_index("parameter")
         for loop_name, sim_name in case.compare.items():
+            if loop_name not in table.index:
+                continue  # a parameter of another expected candidate
             estimate = table.loc[loop_name]
             truth = case.params.get(sim_name, _default(case.effect, sim_name))
             row |= {
@@ -116,5 +126,5 @@ def outcome(case: Case, result) -> dict[str, Any]:
     elif case.expect is None:
         row["correct"] = not added and result.verdict == "unexplained structure"
     else:
-        row["correct"] = first == case.expect
+        row["correct"] = bool(expect & set(named))
     return row

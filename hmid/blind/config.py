@@ -2,8 +2,9 @@
 
 The suite names a data-set template (``hmid simulate`` format, no extra effects), an experiment
 template (its ``logs`` are filled in per case) and the simulator effects to switch on, each at
-named strengths and with the candidate effect that should explain it (``expect: null`` for an
-effect the library deliberately lacks). Clean cases (no effect) are the negative controls.
+named strengths and with the candidate effect that should explain it (a name, or the names that
+each count as right, such as a delay or a lag of the same sensor; ``expect: null`` for an effect
+the library deliberately lacks). Clean cases (no effect) are the negative controls.
 """
 
 from __future__ import annotations
@@ -24,18 +25,21 @@ class _Frozen(BaseModel):
 
 class EffectCases(_Frozen):
     kind: str  # a simulator effect (hmid.simulate.effects)
-    expect: str | None  # the loop candidate that explains it; None: outside the library
+    # the loop candidate(s) that explain it; None: outside the library
+    expect: tuple[str, ...] | None
     strengths: Annotated[dict[str, dict[str, float]], Field(min_length=1)]
     # {loop parameter: simulator parameter} whose estimate is compared with the truth
     compare: dict[str, str] = {}
 
+    @field_validator("expect", mode="before")
+    @classmethod
+    def _names(cls, expect):
+        return (expect,) if isinstance(expect, str) else expect
+
     @model_validator(mode="after")
     def _known(self) -> EffectCases:
-        from hmid.loop.candidates import CANDIDATES
         from hmid.simulate.effects import make_effect
 
-        if self.expect is not None and self.expect not in CANDIDATES:
-            raise ValueError(f"expect {self.expect!r} is no candidate; known: {sorted(CANDIDATES)}")
         for params in self.strengths.values():
             try:
                 effect = make_effect({"kind": self.kind, **params})
@@ -48,12 +52,14 @@ class EffectCases(_Frozen):
 
 
 class Targets(_Frozen):
-    """Pass marks: right effect first at ``strength``; effect added on clean data; no claim
-    (and "unexplained structure") for effects outside the library."""
+    """Pass marks at ``strength``: the right effect first (alone, or in an "indistinguishable"
+    set); an effect added on clean data; a confidently wrong single name (over all cases with an
+    effect); no claim and "unexplained structure" for effects outside the library."""
 
     strength: str = "moderate"
     right_first: Annotated[float, Field(ge=0, le=1)] = 0.9
     false_additions: Annotated[float, Field(ge=0, le=1)] = 0.05
+    confidently_wrong: Annotated[float, Field(ge=0, le=1)] = 0.05
     unexplained: Annotated[float, Field(ge=0, le=1)] = 0.9
 
 
@@ -76,6 +82,16 @@ class BlindSuite(_Frozen):
         if len(set(kinds)) != len(kinds):
             raise ValueError("an effect kind is listed twice")
         return effects
+
+    def check_expectations(self, offered: set[str], source: str) -> None:
+        """ConfigError (one line) if an expected name is no candidate the rig is offered."""
+        for i, effect in enumerate(self.effects):
+            unknown = sorted(set(effect.expect or ()) - offered)
+            if unknown:
+                raise ConfigError(
+                    f"{source}: effects.{i}.expect: {unknown} are no candidates of this rig; it "
+                    f"offers {sorted(offered)}"
+                )
 
     def resolve(self, path: Path) -> Path:
         return path if path.is_absolute() else self.base_dir / path

@@ -21,7 +21,13 @@ def suite_table(outcomes: pd.DataFrame) -> pd.DataFrame:
                 "strength": strength,
                 "expected": expect if expect is not None else ("none" if effect == CLEAN else "—"),
                 "runs": len(group),
-                "right first": (group["first"] == expect).mean() if expect else float("nan"),
+                "right first": group["correct"].mean() if expect else float("nan"),
+                "of which indistinguishable": (
+                    (group["correct"] & group["indistinguishable"]).mean()
+                    if expect
+                    else float("nan")
+                ),
+                "confidently wrong": group["confidently wrong"].mean(),
                 "any effect added": added.mean(),
                 "'unexplained structure'": (group["verdict"] == "unexplained structure").mean(),
                 "correct": group["correct"].mean(),
@@ -29,7 +35,8 @@ def suite_table(outcomes: pd.DataFrame) -> pd.DataFrame:
                 "RMSE after [N]": group["rmse after [N]"].median(),
                 **_recovery(group),
                 "first named (counts)": ", ".join(
-                    f"{k}: {v}" for k, v in group["first"].fillna("none").value_counts().items()
+                    f"{k or 'none'}: {v}"
+                    for k, v in group["first named"].fillna("").value_counts().items()
                 ),
             }
         )
@@ -62,13 +69,19 @@ def check_targets(outcomes: pd.DataFrame, suite: BlindSuite) -> pd.DataFrame:
             label = f"{effect.kind} ({t.strength}): no effect claimed, 'unexplained structure'"
             rows.append((label, rate, ">=", t.unexplained))
         else:
-            rate = (group["first"] == effect.expect).mean()
-            label = f"{effect.kind} ({t.strength}): {effect.expect} named first"
+            rate = group["correct"].mean()
+            names = " or ".join(effect.expect)
+            label = f"{effect.kind} ({t.strength}): {names} named first (alone or among rivals)"
             rows.append((label, rate, ">=", t.right_first))
     clean = outcomes[outcomes["effect"] == CLEAN]
     if not clean.empty:
         rate = (clean["added"].fillna("") != "").mean()
         rows.append(("clean: an effect added", rate, "<=", t.false_additions))
+    moderate = outcomes[(outcomes["effect"] != CLEAN) & (outcomes["strength"] == t.strength)]
+    if not moderate.empty:
+        rate = moderate["confidently wrong"].mean()
+        label = f"every effect ({t.strength}): a confidently wrong single name"
+        rows.append((label, rate, "<=", t.confidently_wrong))
     frame = pd.DataFrame(rows, columns=["target", "measured", "rule", "mark"])
     frame["met"] = [
         m >= k if r == ">=" else m <= k

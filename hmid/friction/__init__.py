@@ -8,6 +8,8 @@ free_fall``; the identified law then enters its balance with that term's sign.
 * :class:`FrictionModel` strategies: :class:`Coulomb` (the thesis's) and :class:`CoulombViscous`.
 * :func:`identify_friction` fits a model to the position of each free fall and pools the logs
   into a :class:`FrictionEstimate` (intervals, per-log fits, force cross-check, Cochran's Q).
+* :class:`LawCheck`: whether the falls' residuals accept the law (runs test; Coulomb + viscous
+  against Coulomb), said on every run when they do not.
 * :func:`plot_free_fall` draws the fits and their residuals.
 
 ``friction(v) = sign(v) Fc (+ b v)`` is a force along +x with the sign of the motion.
@@ -20,6 +22,7 @@ from hmid.friction._identify import (
     identify_friction,
     sliding_segment,
 )
+from hmid.friction._law import LawCheck
 from hmid.friction._models import Coulomb, CoulombViscous, FallFit, FallRig, FrictionModel
 from hmid.friction._plot import plot_free_fall
 
@@ -31,6 +34,7 @@ __all__ = [
     "FallRig",
     "FrictionEstimate",
     "FrictionModel",
+    "LawCheck",
     "LoadCellCheck",
     "LogFriction",
     "derivative_reach",

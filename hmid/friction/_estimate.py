@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from hmid.friction._law import LawCheck
 from hmid.friction._models import FallRig, FrictionModel
 
 Interval = tuple[float, float]
@@ -88,6 +89,7 @@ class FrictionEstimate:
     i2: float  # NaN for a single log
     confidence: float
     rig: FallRig
+    law: LawCheck | None = None  # whether the free falls' residuals accept the law
 
     @classmethod
     def known(
@@ -120,6 +122,7 @@ class FrictionEstimate:
                 "units": dict(self.units),
                 "heterogeneity": {"Q": self.q, "dof": self.q_dof, "p": self.q_p, "I2": self.i2},
                 "free_fall": {"mass": self.rig.mass, "drive": self.rig.drive},
+                "law_check": None if self.law is None else self.law.to_dict(),
                 "logs": [
                     {
                         "source": r.source,

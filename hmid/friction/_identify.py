@@ -11,6 +11,7 @@ from statsmodels.stats.stattools import durbin_watson
 
 from hmid.errors import ConfigError, LogError, SignalError
 from hmid.friction._estimate import FrictionEstimate, LoadCellCheck, LogFriction
+from hmid.friction._law import check_law
 from hmid.friction._models import FallRig, FrictionModel
 from hmid.io.log import Log
 from hmid.signal import Differentiator
@@ -147,7 +148,7 @@ def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign,
         v_ref=direction * fit.w0,
         load_cell=load_cell,
     )
-    return result, np.asarray(fit.cov)
+    return result, np.asarray(fit.cov), (tau, u, fit.fitted)
 
 
 def _pool(thetas: list[np.ndarray], covs: list[np.ndarray]):
@@ -197,8 +198,8 @@ def identify_friction(
     settings = (v_min, confidence, position, friction_sign, explained)
     fits = [_fit_log(log, rig, model, differentiator, *settings) for log in logs]
     names = model.param_names
-    thetas = [np.array([r.params[p] for p in names]) for r, _ in fits]
-    mean, cov, q, dof = _pool(thetas, [c for _, c in fits])
+    thetas = [np.array([r.params[p] for p in names]) for r, _, _ in fits]
+    mean, cov, q, dof = _pool(thetas, [c for _, c, _ in fits])
     se = np.sqrt(np.diag(cov))
     z = stats.norm.ppf(0.5 + confidence / 2)
     q_p = float(stats.chi2.sf(q, dof)) if dof > 0 else float("nan")
@@ -209,11 +210,12 @@ def identify_friction(
         se={p: float(se[j]) for j, p in enumerate(names)},
         ci={p: _interval(mean[j], se[j], z) for j, p in enumerate(names)},
         units=dict(model.units),
-        per_log=tuple(r for r, _ in fits),
+        per_log=tuple(r for r, _, _ in fits),
         q=q,
         q_dof=dof,
         q_p=q_p,
         i2=float(i2),
         confidence=confidence,
         rig=rig,
+        law=check_law(model, [f for _, _, f in fits], rig, confidence),
     )

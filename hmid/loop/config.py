@@ -7,25 +7,30 @@ from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from hmid.loop.candidates import CANDIDATES, Setting
+from hmid.loop.candidates import Setting, library
 
 
 class LoopSpec(BaseModel):
-    """Close the loop: residual diagnostics, candidate effects, ranking and held-out confirmation.
+    """Close the loop: residual diagnostics, candidate effects, selection, held-out report.
 
     ``base`` names a model of the experiment's ``models`` (e.g. ``sls``, ``poly:cubic_xvP``,
     ``balance``): its fit is the "before", and its terms are refitted by least squares with each
-    candidate added. ``candidates`` defaults to every library effect the rig can show (those
-    reading a channel the rig lacks are left out).
+    candidate added. ``candidates`` defaults to the whole library generated for the rig (see
+    :func:`hmid.loop.candidates.library`); a list names some of it (``viscous.direction``,
+    ``coulomb.x``, ``delay.P``...).
 
-    Rule: a candidate passes on training data when its extra-sum-of-squares F-test (on the
-    effective sample size) is significant at ``alpha`` after Holm's correction over the round's
-    candidates, it lowers BIC, and it is identified: its profiled parameter is not on a grid edge
-    that means "no such effect" and its sign-constrained parameters (a friction coefficient) have
-    their physical sign; passing candidates are tried in BIC order and the first whose
-    held-out RMSE is lower by at least ``margin`` (relative) is added. Rounds repeat until none
-    is added, ``max_effects`` are in, or no signal explains ``structure_threshold`` of the
-    residual's variance.
+    Three roles of rows. On the **training** rows a candidate must be significant: its
+    extra-sum-of-squares F-test (on the effective sample size) at ``alpha`` after Holm's
+    correction over the round, a lower BIC, and identified (a physical sign of its sign-fixed
+    parameters, a profiled value off any grid edge that means "no such effect"). **Selection**
+    is blocked cross-validation on the same training rows (``folds`` folds of ``block_s`` time
+    blocks): the candidate must lower the out-of-fold RMSE by more than ``margin`` (relative)
+    even at the upper ``confidence`` bound of a block bootstrap (``draws`` resamples from the
+    experiment's seed). The best selected candidate is added; any selected candidate of other
+    physics that cross-validates not clearly worse is reported beside it as indistinguishable.
+    The **held-out** rows of the comparison, which no decision sees, give the before/after error.
+    Rounds repeat until none is added, ``max_effects`` are in, or no signal explains
+    ``structure_threshold`` of the residual's variance.
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
@@ -33,7 +38,10 @@ class LoopSpec(BaseModel):
     base: Annotated[str, Field(min_length=1)]
     candidates: tuple[str, ...] | None = None
     alpha: Annotated[float, Field(gt=0, lt=0.5)] = 0.01
-    margin: Annotated[float, Field(ge=0, lt=1)] = 0.03
+    margin: Annotated[float, Field(ge=0, lt=1)] = 0.0
+    folds: Annotated[int, Field(ge=2, le=20)] = 5
+    block_s: Annotated[float, Field(gt=0)] = 1.0
+    draws: Annotated[int, Field(ge=100, le=10000)] = 400
     max_effects: Annotated[int, Field(ge=0, le=10)] = 3
     structure_threshold: Annotated[float, Field(gt=0, lt=1)] = 0.05
     confidence: Annotated[float, Field(gt=0.5, lt=1)] = 0.95
@@ -43,13 +51,8 @@ class LoopSpec(BaseModel):
 
     @field_validator("candidates")
     @classmethod
-    def _known(cls, names):
-        if names is None:
-            return names
-        unknown = [n for n in names if n not in CANDIDATES]
-        if unknown:
-            raise ValueError(f"unknown candidate effect(s) {unknown}; known: {sorted(CANDIDATES)}")
-        if len(set(names)) != len(names):
+    def _unique(cls, names):
+        if names is not None and len(set(names)) != len(names):
             raise ValueError("candidate effects are listed twice")
         return names
 
@@ -57,14 +60,16 @@ class LoopSpec(BaseModel):
         """ValueError (one line) if the base is no model or a listed candidate cannot apply."""
         if self.base not in model_names:
             raise ValueError(f"loop.base {self.base!r} is none of the models {model_names}")
-        setting = Setting.of(rig)
-        for name in self.candidates or ():
-            why = CANDIDATES[name].missing(setting)
-            if why:
-                raise ValueError(f"loop.candidates: {name!r} {why}; leave it out")
+        offered = library(Setting.of(rig))
+        unknown = [n for n in self.candidates or () if n not in offered]
+        if unknown:
+            raise ValueError(
+                f"loop.candidates: {unknown} are not effects this rig can show; it offers "
+                f"{sorted(offered)}"
+            )
 
     def candidate_names(self, setting: Setting) -> tuple[str, ...]:
-        """The candidates to test: the listed ones, or every one the rig supports."""
+        """The candidates to test: the listed ones, or the rig's whole library."""
         if self.candidates is not None:
             return self.candidates
-        return tuple(name for name, cls in CANDIDATES.items() if cls.missing(setting) is None)
+        return tuple(library(setting))

@@ -98,7 +98,10 @@ def periodicity(residual: np.ndarray, data: Signals, signal: str, points: int = 
         k = int(np.argmax(power))
         found.append((float(power[k]), label, 2 * np.pi / freqs[k]))
     share, label, period = max(found)
-    if share < MIN_SHARE:
+    gap = float(np.max(np.diff(np.sort(s))))
+    if share < MIN_SHARE or gap > period / 4:
+        # a period is claimed only where samples cover it: between clusters of a signal (tests
+        # at a few pressures) any sinusoid through the clusters fits
         return ""
     si = unit(data, signal)
     name, factor = READABLE.get(si, (si, 1.0))

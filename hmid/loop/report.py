@@ -68,6 +68,17 @@ def metrics(result: LoopResult) -> dict:
                 "name": e.name,
                 "evidence": e.evidence,
                 "parameters": e.parameters.replace({np.nan: None}).to_dict(orient="records"),
+                "indistinguishable_from": [
+                    {
+                        "name": a.name,
+                        "cv_gap": a.gap,
+                        "separating": a.separating,
+                        "parameters": a.parameters.replace({np.nan: None}).to_dict(
+                            orient="records"
+                        ),
+                    }
+                    for a in e.alternatives
+                ],
             }
             for e in result.effects
         ],
@@ -102,15 +113,30 @@ def loop_section(
     effect_sections = []
     for e in result.effects:
         write_csv(e.parameters, f"{prefix}_effect_{e.name}.csv")
+        rivals = []
+        for a in e.alternatives:
+            write_csv(a.parameters, f"{prefix}_effect_{e.name}_or_{a.name}.csv")
+            rivals.append(
+                Section(
+                    f"Indistinguishable from it: {a.title}",
+                    text=(
+                        f"Physics: {a.physics}.\n\nIts out-of-fold RMSE is "
+                        f"{100 * a.gap:+.2f} % of the added effect's, not clearly worse. "
+                        f"To tell them apart: {a.separating}."
+                    ),
+                    tables=(Table(a.parameters, f"{a.title}: parameters, units and intervals"),),
+                )
+            )
         effect_sections.append(
             Section(
-                f"Added: {e.title}",
+                f"Added: {e.title}" if not e.alternatives else f"Added: {e.verdict()}",
                 text=f"Physics: {e.physics}.\n\nEvidence: {e.evidence}.",
                 tables=(Table(e.parameters, f"{e.title}: parameters, units and intervals"),),
+                subsections=tuple(rivals),
             )
         )
     hint_tables, hint_text = (), ""
-    if result.hint is not None:
+    if result.hint is not None and result.hint.heldout_r2 > 0:
         write_csv(result.hint.terms, f"{prefix}_hint.csv")
         hint_tables = (
             Table(
@@ -122,18 +148,19 @@ def loop_section(
                 "variance",
             ),
         )
-        if result.hint.periodic:
-            hint_text = f"\n\n**Hint (not an identified effect):** the {result.hint.periodic}."
+    if result.hint is not None and result.hint.periodic:
+        hint_text = f"\n\n**Hint (not an identified effect):** the {result.hint.periodic}."
     text = (
         f"**Verdict: {result.verdict}.** {result.message}{hint_text}\n\n"
         f"Base: **{result.base_name}** as fitted by its family (the 'before'); for the tests its "
         "terms are refitted by least squares with every profiled parameter profiled, alone and "
-        "with each candidate. Errors are **one-step** on the held-out rows (a lead's reach "
-        "before each segment's end left out). The held-out rows also confirm each effect before "
-        "it is added (it must lower their RMSE by the configured margin), so the 'after' error "
-        "is the error of a selected model. Tests count the effective sample size n / τ_int "
-        "(integrated autocorrelation time of the residual); parameter intervals use the same "
-        "inflation, which is approximate."
+        "with each candidate. Three roles of rows: candidates are fitted and tested on the "
+        "training rows, selected by blocked cross-validation on those same rows (with a block "
+        "bootstrap of the change in out-of-fold RMSE), and the before/after errors are "
+        "**one-step** on the comparison's held-out rows, which no decision has seen (a lead's "
+        "reach before each segment's end left out). Tests count the effective sample size "
+        "n / τ_int (integrated autocorrelation time of the residual); parameter intervals use "
+        "the same inflation, which is approximate."
     )
     section = Section(
         title,

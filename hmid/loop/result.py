@@ -16,14 +16,38 @@ from hmid.metrics import Scores, score
 
 
 @dataclass(frozen=True)
+class Alternative:
+    """Rival physics that explains the residual about as well as an added effect."""
+
+    name: str
+    title: str
+    physics: str
+    parameters: pd.DataFrame
+    gap: float  # its out-of-fold RMSE relative to the added effect's, less 1
+    separating: str  # the experiment that would tell the two apart
+
+
+@dataclass(frozen=True)
 class Effect:
-    """An added effect: its parameters with intervals, and the evidence that pointed to it."""
+    """An added effect: its parameters with intervals, the evidence that pointed to it, and the
+    rivals the data cannot tell from it."""
 
     name: str
     title: str
     physics: str
     parameters: pd.DataFrame
     evidence: str
+    alternatives: tuple[Alternative, ...] = ()
+
+    @property
+    def named(self) -> tuple[str, ...]:
+        """What the data say: this effect, or any of its indistinguishable rivals."""
+        return (self.name, *(a.name for a in self.alternatives))
+
+    def verdict(self) -> str:
+        if not self.alternatives:
+            return self.title
+        return "indistinguishable on these data: " + " or ".join(self.named)
 
 
 @dataclass(frozen=True)
@@ -49,33 +73,46 @@ class LoopResult:
     def first_effect(self) -> str | None:
         return self.effects[0].name if self.effects else None
 
+    @property
+    def first_named(self) -> tuple[str, ...]:
+        """The first effect and its indistinguishable rivals (empty if none was added)."""
+        return self.effects[0].named if self.effects else ()
 
-def make_effect(
-    candidate, trial: StructureFit, current: StructureFit, signals: Signals, interval, evidence,
-    held_rmse: float, confidence: float,
-) -> Effect:  # fmt: skip
-    """The added effect's own parameters (intervals on the augmented residual's n_eff; a
-    profiled parameter keeps its profile-likelihood interval) and its evidence."""
-    tau_int = residual_tau_int(trial.residual, signals)
-    table = parameters(trial, signals, tau_int, confidence)
-    hyper_names = [trial.structure.terms[i].term.hyper.name for i in trial.structure.hypers]
-    own = table[~table["parameter"].isin([*current.columns.names, *hyper_names])]
-    own = own.drop(columns=["positive"])
+
+def own_parameters(candidate, fitted: StructureFit, interval, signals: Signals, confidence):
+    """A candidate's own parameters in ``fitted`` (intervals on its residual's n_eff; a profiled
+    parameter keeps its profile-likelihood interval)."""
+    tau_int = residual_tau_int(fitted.residual, signals)
+    table = parameters(fitted, signals, tau_int, confidence)
+    own_columns = set(candidate.columns(fitted.structure.seen(signals),
+                                        fitted.structure.terms[-1].value).names)  # fmt: skip
+    own = table[table["parameter"].isin(own_columns)].drop(columns=["positive"])
     if candidate.hyper is not None:
-        value = trial.structure.terms[-1].value
         hyper = candidate.hyper
+        low, high = interval if interval is not None else (np.nan, np.nan)
+        value = fitted.structure.terms[-1].value
         profiled = {"parameter": hyper.name, "value": value, "std. error": np.nan,
-                    "lower": interval[0], "upper": interval[1], "unit": hyper.unit}  # fmt: skip
+                    "lower": low, "upper": high, "unit": hyper.unit}  # fmt: skip
         own = pd.concat([own, pd.DataFrame([profiled])], ignore_index=True)
+    return own.reset_index(drop=True)
+
+
+def make_effect(screened, trial: StructureFit, current: StructureFit, signals: Signals,
+                evidence: dict, folds, confidence: float, alternatives=()) -> Effect:  # fmt: skip
+    """The added effect (``screened``: its screen) with parameters from ``trial``, the joint fit
+    every parameter was profiled afresh in."""
+    candidate = screened.candidate
+    table = own_parameters(candidate, trial, screened.interval, signals, confidence)
     text = (
-        f"round {evidence['round']}: F = {evidence['F']:.1f} on n_eff = {evidence['n_eff']:.0f}, "
-        f"Holm-adjusted p = {evidence['p (Holm)']:.2g}, ΔBIC = {evidence['ΔBIC']:.1f}; "
-        f"held-out RMSE {held_rmse:.4g} → {evidence['held-out RMSE']:.4g} "
-        f"({100 * evidence['held-out change']:+.1f} %)"
+        f"round {evidence['round']}, training rows: F = {evidence['F']:.1f} on n_eff = "
+        f"{evidence['n_eff']:.0f}, Holm-adjusted p = {evidence['p (Holm)']:.2g}, "
+        f"ΔBIC = {evidence['ΔBIC']:.1f}; selection by {int(folds.fold.max()) + 1}-fold blocked "
+        f"cross-validation over {folds.blocks} time blocks: out-of-fold RMSE "
+        f"{100 * evidence['CV change']:+.2f} % (block bootstrap, {confidence:.0%} upper bound "
+        f"{100 * evidence['CV upper bound']:+.2f} %)"
     )
-    return Effect(
-        candidate.name, candidate.title, candidate.physics, own.reset_index(drop=True), text
-    )
+    return Effect(candidate.name, candidate.title, candidate.physics, table, text,
+                  tuple(alternatives))  # fmt: skip
 
 
 def _residual_before(signals: Signals, prediction: np.ndarray) -> np.ndarray:
@@ -95,7 +132,7 @@ def finish(spec, signals, base, start, current, effects, tests, held) -> LoopRes
             current_residual, signals, max_lag_s=spec.max_lag_s, stride_s=spec.stride_s
         )
     signal, eta2 = after.strongest
-    names = ", ".join(e.title for e in effects)
+    names = "; ".join(e.verdict() for e in effects)
     white = (
         f"Ljung-Box on the residual every {spec.stride_s * 1e3:.0f} ms: p = {after.ljung_box_p:.2g}"
     )
@@ -104,6 +141,8 @@ def finish(spec, signals, base, start, current, effects, tests, held) -> LoopRes
         verdict = "unexplained structure"
         if spec.hint:
             hint = sparse_hint(current_residual, signals, signal)
+            if hint.heldout_r2 <= 0 and not hint.periodic:
+                hint = None  # a hint that explains no held-out variance is no hint
         message = (
             f"Structure remains that no candidate effect explains: the residual depends on "
             f"{signal} (cross-fitted η² = {eta2:.3f} ≥ {spec.structure_threshold}); {white}. "

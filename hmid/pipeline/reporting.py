@@ -67,6 +67,14 @@ def _friction_text(estimate) -> str:
             f"- **{name}** = {value:.4g} {estimate.units[name]} "
             f"({100 * estimate.confidence:.0f} % CI {lo:.4g} … {hi:.4g})"
         )
+    law = estimate.law
+    if law is not None:
+        lines.append(
+            f"\n**Law check:** {law.message()}." if law.rejected else
+            f"\n**Law check:** the residuals accept the {law.model} law (runs test p = "
+            f"{law.runs_p:.2g}" + (f"; Coulomb + viscous F-test p = {law.f_p:.2g}"
+                                  if np.isfinite(law.f_p) else "") + ")."
+        )  # fmt: skip
     return "\n".join(lines)
 
 
@@ -224,6 +232,8 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
              f"{estimate.ci[name][0]:.4g} … {estimate.ci[name][1]:.4g}")
             for name, value in estimate.params.items()
         )  # fmt: skip
+        if estimate.law is not None and estimate.law.rejected:
+            friction_summary += (("friction law", estimate.law.message()),)
 
     flags = [f for item in artifacts["load"].values() for f in item.log.flags]
     n_train, n_val = split.n_train, split.n_validation

@@ -222,4 +222,4 @@ def loop(config: ExperimentConfig, split: Split, fit: list[Fitted]):
 
     model = next(m for m in fit if m.name == config.loop.base)
     base = LoopBase.of(model, FitData(split.signals, config.rig))
-    return run_loop(split.signals, base, config.loop, Setting.of(config.rig))
+    return run_loop(split.signals, base, config.loop, Setting.of(config.rig), config.seed)

@@ -4,9 +4,12 @@ They are the raw material for testing whether identification notices physics its
 Each effect is a small :class:`Effect` (an equinox module, so its parameters are traced rather
 than compiled in) that overrides one or more hooks:
 
-* ``breakaway(P, x)``  extra static-friction level (N, >= 0) that must be overcome to start sliding;
+* ``breakaway(P, x)``  extra static-friction level (N, >= 0 except where an effect lowers the
+  rig's level, as ``position_friction`` may) that must be overcome to start sliding;
 * ``sliding(v, P, x)`` extra friction force while sliding (N, signed, opposing v);
 * ``stiffness(t)``     factor on the latex's elastic forces;
+* ``muscle(t, x, v, P)`` extra muscle force (N, along +x) beside the latex's springs, e.g. a
+  dashpot; it acts only with the muscle connected (not in free-fall tests);
 * ``sense(channel, t, y)`` changes what a sensor reports (NumPy, on the true signal before noise
   and quantisation).
 
@@ -49,6 +52,9 @@ class Effect(eqx.Module):
 
     def stiffness(self, t):
         return 1.0
+
+    def muscle(self, t, x, v, P):
+        return 0.0
 
     def sense(self, channel: str, t: np.ndarray, y: np.ndarray) -> np.ndarray:
         return y
@@ -195,6 +201,104 @@ class LoadCellDrift(Effect):
 
     def sense(self, channel, t, y):
         return y + self.offset + self.rate * (t - t[0]) if channel == "F" else y
+
+
+class PositionFriction(Effect):
+    """Coulomb friction changing linearly along the rail, slope (x - x_ref): a worn or tilted rail.
+
+    The extra level is added to the rig's Coulomb friction as given, for breakaway and sliding
+    (sign(v) slope (x - x_ref)); it is negative on one side of ``x_ref`` for a positive slope.
+    With ``span`` > 0 the change stops at |x - x_ref| = span (the worn stretch ends): free falls
+    far along the rail then see a constant extra level. The effect does not know the rig's base
+    level, so it cannot check the sum: keep the rig's total Coulomb level >= 0 over the travel
+    (20 N/m over the demo's ~10 mm changes friction by 0.2 N).
+    """
+
+    kind: ClassVar[str] = "position_friction"
+    signals: ClassVar[tuple[str, ...]] = ("x", "F")
+    slope: float = 20.0  # N/m, may be negative
+    x_ref: float = 0.0  # m, where the extra level is zero
+    span: float = 0.0  # m, beyond |x - x_ref| = span the level stops changing (0: no end)
+
+    def __check_init__(self):
+        _check(np.isfinite(self.slope), self.kind, f"slope={self.slope} must be finite (N/m)")
+        _check(np.isfinite(self.x_ref), self.kind, f"x_ref={self.x_ref} must be finite (m)")
+        _check(self.span >= 0, self.kind, f"span={self.span} must be >= 0 m (0: no end)")
+
+    def _level(self, x):
+        offset = x - self.x_ref
+        ended = jnp.clip(offset, -self.span, self.span)
+        return self.slope * jnp.where(self.span > 0, ended, offset)
+
+    def breakaway(self, P, x):
+        return self._level(x)
+
+    def sliding(self, v, P, x):
+        return jnp.sign(v) * self._level(x)
+
+
+class DirectionViscous(Effect):
+    """Viscous friction with a coefficient per direction: b_pos v for v > 0, b_neg v for v < 0.
+
+    A seal or wiper that drags more one way than the other; a real rig shows friction loops whose
+    width differs between extension and retraction.
+    """
+
+    kind: ClassVar[str] = "direction_viscous"
+    signals: ClassVar[tuple[str, ...]] = ("x", "F")
+    b_pos: float = 3.0  # N s/m, extending (v > 0)
+    b_neg: float = 0.0  # N s/m, retracting (v < 0)
+
+    def __check_init__(self):
+        _check(self.b_pos >= 0, self.kind, f"b_pos={self.b_pos} must be >= 0 N s/m")
+        _check(self.b_neg >= 0, self.kind, f"b_neg={self.b_neg} must be >= 0 N s/m")
+
+    def sliding(self, v, P, x):
+        return jnp.where(v > 0, self.b_pos, self.b_neg) * v
+
+
+class PositionSensorDelay(Effect):
+    """The position sensor reports late and in steps: a sample-and-hold, then a transport delay.
+
+    The logged x at time t is the true x at the last hold instant k hold <= t - delay (absolute
+    simulation time, interpolated between samples; hold = 0: no hold). Before the first sample the
+    sensor holds the first value. A slow encoder bus or camera: force leads position.
+    """
+
+    kind: ClassVar[str] = "position_sensor_delay"
+    signals: ClassVar[tuple[str, ...]] = ("x",)
+    delay: float = 0.016  # s
+    hold: float = 0.0165  # s, sample-and-hold period
+
+    def __check_init__(self):
+        _check(self.delay >= 0, self.kind, f"delay={self.delay} must be >= 0 s")
+        _check(self.hold >= 0, self.kind, f"hold={self.hold} must be >= 0 s")
+
+    def sense(self, channel, t, y):
+        if channel != "x":
+            return y
+        when = t - self.delay
+        if self.hold > 0:
+            # + 1e-9: an instant that lands on a sample time is not rounded to the one before
+            when = np.floor(when / self.hold + 1e-9) * self.hold
+        return np.interp(when, t, y)  # before t0 the sensor holds the first value
+
+
+class MuscleDamping(Effect):
+    """A dashpot inside the muscle, parallel to its springs: the muscle force gains -c v.
+
+    Unlike viscous rail friction it acts only with the muscle connected: free falls do not show it.
+    """
+
+    kind: ClassVar[str] = "muscle_damping"
+    signals: ClassVar[tuple[str, ...]] = ("x", "F")
+    c: float = 3.0  # N s/m
+
+    def __check_init__(self):
+        _check(self.c >= 0, self.kind, f"c={self.c} must be >= 0 N s/m")
+
+    def muscle(self, t, x, v, P):
+        return -self.c * v
 
 
 def make_effect(spec: Mapping[str, object] | Effect) -> Effect:

@@ -11,12 +11,13 @@ applied force is below the breakaway level, and never chatters through zero velo
   applied force if that exceeds the breakaway level.
 
 Semi-implicit Euler with ``substeps`` steps per sample; the Maxwell arm's force q is advanced
-exactly for constant velocity over a step. Accelerations and forces are logged from the last
-substep before each sample instant (a sample-and-hold reading, time-aligned to within one
-substep), so F_m - m1 g - friction = (M + m1) a holds exactly at every logged sample. The
-pressure follows the command through the valve's slew-limited first-order lag. The loop runs in
-``jax.lax.scan`` in float64: a 60 s log at 1 kHz with 20 substeps takes well under a second after
-compilation.
+exactly for constant velocity over a step. Effects (:mod:`hmid.simulate.effects`) add friction,
+scale the latex's springs or add muscle forces (a dashpot: explicit, at the step's start
+velocity). Accelerations and forces are logged from the last substep before each sample instant
+(a sample-and-hold reading, time-aligned to within one substep), so F_m - m1 g - friction =
+(M + m1) a holds exactly at every logged sample. The pressure follows the command through the
+valve's slew-limited first-order lag. The loop runs in ``jax.lax.scan`` in float64: a 60 s log at
+1 kHz with 20 substeps takes well under a second after compilation.
 """
 
 from __future__ import annotations
@@ -79,11 +80,14 @@ def _constants(rig: RigParams, connected: bool) -> _Constants:
     )  # fmt: skip
 
 
-def _muscle_force(c: _Constants, effects, t, x, q, P):
+def _muscle_force(c: _Constants, effects, t, x, v, q, P):
     stiffness = 1.0
     for effect in effects:
         stiffness = stiffness * effect.stiffness(t)
-    return c.connected * (c.A_eff * P + c.F0 - stiffness * (c.k1 * x + c.k3 * x**3 + q))
+    force = c.A_eff * P + c.F0 - stiffness * (c.k1 * x + c.k3 * x**3 + q)
+    for effect in effects:  # forces beside the latex's springs (a dashpot), at the step's start
+        force = force + effect.muscle(t, x, v, P)
+    return c.connected * force
 
 
 def _substep(c: _Constants, effects, dt, held, P_cmd, state):
@@ -91,7 +95,7 @@ def _substep(c: _Constants, effects, dt, held, P_cmd, state):
     # exact first-order step (stable for any tau), then the valve's flow limit
     target = P_cmd + (P - P_cmd) * jnp.exp(-dt / c.valve_tau)
     P = P + jnp.clip(target - P, -c.slew * dt, c.slew * dt)
-    F_app = _muscle_force(c, effects, t, x, q, P) - c.m1 * c.g
+    F_app = _muscle_force(c, effects, t, x, v, q, P) - c.m1 * c.g
     mass = c.M + c.m1
 
     def slide_force(vel):
@@ -164,7 +168,10 @@ def equilibrium(rig: RigParams, P: float, effects: tuple[Effect, ...] = ()) -> f
     stiffness = float(np.prod([float(e.stiffness(0.0)) for e in effects])) if effects else 1.0
 
     def residual(x):
-        return m.A_eff * P + m.F0 - stiffness * (m.k1 * x + m.k3 * x**3) - rig.m1 * rig.g
+        force = m.A_eff * P + m.F0 - stiffness * (m.k1 * x + m.k3 * x**3)
+        for effect in effects:  # at rest: a dashpot adds nothing
+            force = force + float(effect.muscle(0.0, x, 0.0, P))
+        return force - rig.m1 * rig.g
 
     if residual(rig.x_min) <= 0:
         return rig.x_min

@@ -2,13 +2,25 @@
 
 from types import SimpleNamespace
 
+import pandas as pd
+
 from hmid.blind import CLEAN, Case, dataset_for, outcome
+from hmid.loop.result import Alternative, Effect
+
+
+def _effect(names):
+    """An added effect, with rivals when ``names`` is a tuple (the first is added)."""
+    names = (names,) if isinstance(names, str) else names
+    rivals = tuple(Alternative(n, n, "", pd.DataFrame(), 0.0, "") for n in names[1:])
+    return Effect(names[0], names[0], "", pd.DataFrame(), "", rivals)
 
 
 def _result(effects, verdict="explained"):
     scores = SimpleNamespace(rmse=0.1)
+    effects = [_effect(e) for e in effects]
     return SimpleNamespace(
-        effects=[SimpleNamespace(name=n) for n in effects],
+        effects=effects,
+        first_named=effects[0].named if effects else (),
         verdict=verdict,
         before=scores,
         after=scores,
@@ -17,7 +29,7 @@ def _result(effects, verdict="explained"):
 
 def test_the_effect_is_switched_on_in_every_log_and_the_seed_replaced():
     template = {"seed": 0, "logs": [{"name": "a"}, {"name": "b", "effects": [{"kind": "viscous"}]}]}
-    case = Case("x", "stribeck", "moderate", 0, 42, {"delta": 0.2}, "stribeck")
+    case = Case("x", "stribeck", "moderate", 0, 42, {"delta": 0.2}, ("stribeck",))
     config = dataset_for(template, case)
     assert config["seed"] == 42
     assert config["logs"][0]["effects"] == [{"kind": "stribeck", "delta": 0.2}]
@@ -26,13 +38,20 @@ def test_the_effect_is_switched_on_in_every_log_and_the_seed_replaced():
 
 
 def test_outcomes_are_judged_by_what_was_claimed():
-    lib = Case("l", "viscous", "m", 0, 1, {"b": 1.0}, "viscous")
+    lib = Case("l", "viscous", "m", 0, 1, {"b": 1.0}, ("viscous",))
     assert outcome(lib, _result(["viscous", "stribeck"]))["correct"]
-    assert not outcome(lib, _result(["stribeck", "viscous"]))["correct"]
+    wrong = outcome(lib, _result(["stribeck", "viscous"]))
+    assert not wrong["correct"] and wrong["confidently wrong"]
+    # an "indistinguishable" set that holds the right name is right, and not confident
+    rivals = outcome(lib, _result([("stribeck", "viscous")]))
+    assert rivals["correct"] and rivals["indistinguishable"] and not rivals["confidently wrong"]
+    hedged = outcome(lib, _result([("stribeck", "coulomb.x")]))
+    assert not hedged["correct"] and not hedged["confidently wrong"]
     clean = Case("c", CLEAN, "-", 0, 2, {}, None)
     assert outcome(clean, _result([], "no attributable structure"))["correct"]
-    assert not outcome(clean, _result(["viscous"]))["correct"]
+    assert outcome(clean, _result(["viscous"]))["confidently wrong"]
     outside = Case("o", "rail_ripple", "m", 0, 3, {"amplitude": 0.1}, None)
     assert outcome(outside, _result([], "unexplained structure"))["correct"]
     assert not outcome(outside, _result([], "no attributable structure"))["correct"]
-    assert not outcome(outside, _result(["hysteresis"], "unexplained structure"))["correct"]
+    claimed = outcome(outside, _result(["coulomb.x"], "unexplained structure"))
+    assert not claimed["correct"] and claimed["confidently wrong"]

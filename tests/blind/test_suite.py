@@ -15,7 +15,8 @@ CI_SUITE = REPO / "configs" / "blind" / "ci.yaml"
 def test_the_reduced_blind_suite_meets_every_pass_mark(tmp_path):
     run_dir, table, targets = run(CI_SUITE, results=tmp_path)
     suite = load_suite(CI_SUITE)
-    assert len(targets) == len(suite.effects) + 1  # every effect, and the clean controls
+    # every effect, the clean controls, and confidently wrong names over all effects
+    assert len(targets) == len(suite.effects) + 2
     missed = targets.loc[~targets["met"], ["target", "measured"]]
     assert missed.empty, f"pass marks missed:\n{missed}\n{table}"
     assert (run_dir / "blind.md").is_file() and (run_dir / "manifest.json").is_file()
@@ -38,10 +39,11 @@ def test_an_expectation_outside_the_library_is_a_config_error(tmp_path):
     path.write_text(
         CI_SUITE.read_text().replace("expect: stribeck", "expect: rail_ripple"), encoding="utf-8"
     )
-    (tmp_path / "dataset.yaml").write_text("x: 1")
-    (tmp_path / "experiment.yaml").write_text("x: 1")
-    with pytest.raises(ConfigError, match=r"rail_ripple.*no candidate"):
-        load_suite(path)
+    for name in ("dataset.yaml", "experiment.yaml"):
+        (tmp_path / name).write_text((CI_SUITE.parent / name).read_text(), encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"effects\.1\.expect: \['rail_ripple'\] are no cand"):
+        run(path, results=tmp_path / "results")  # before any case runs
+    assert not (tmp_path / "results").exists() or not any((tmp_path / "results").iterdir())
 
 
 def test_an_unknown_effect_parameter_is_a_config_error(tmp_path):

@@ -1,29 +1,33 @@
-"""One contract, run over every registered candidate effect: columns at every part of its grid,
-signs from the rig's declared friction sign (never from a fit), and what it needs of a rig."""
+"""One contract, run over the whole library a rich rig is offered: columns at every part of
+each grid, signs from the rig's declared friction sign (never from a fit), units, and what each
+candidate needs of a rig; then how the library is generated for other rigs."""
 
 import numpy as np
 import pytest
 from _loop_data import make_data
 
-from hmid.loop.candidates import CANDIDATES, ELASTIC, Setting
+from hmid.loop.candidates import ELASTIC, STIFFNESS, Setting, library, make_candidates
 
 CHANNELS = ("x", "P", "v", "a")
+RICH = Setting(-1, "x", CHANNELS)
+NAMES = sorted(library(RICH))
 
 
 @pytest.fixture(scope="module")
 def signals():
     data, _ = make_data(None)
-    return data.with_columns(**{ELASTIC: 3000.0 * data["x"]})
+    return data.with_columns(**{ELASTIC: 3000.0 * data["x"], STIFFNESS: np.full(len(data), 3e3)})
 
 
-@pytest.mark.parametrize("name", sorted(CANDIDATES))
+@pytest.mark.parametrize("name", NAMES)
 @pytest.mark.parametrize("friction_sign", [1, -1])
 def test_every_candidate_gives_signed_columns_over_its_grid(name, friction_sign, signals):
-    cls = CANDIDATES[name]
     setting = Setting(friction_sign, "x", CHANNELS)
-    candidate = cls(setting)
-    assert candidate == cls(setting) and hash(candidate) == hash(cls(setting))  # shares caches
-    assert cls.missing(setting) is None and candidate.title and candidate.physics
+    candidate = library(setting)[name]
+    again = library(setting)[name]
+    assert candidate == again and hash(candidate) == hash(again)  # equal ones share caches
+    assert candidate.title and candidate.physics and candidate.follows
+    assert set(candidate.requires) <= set(CHANNELS)
     hyper = candidate.hyper
     grid = (hyper.grid[0], hyper.grid[len(hyper.grid) // 2], hyper.grid[-1]) if hyper else (None,)
     for value in grid:
@@ -32,6 +36,7 @@ def test_every_candidate_gives_signed_columns_over_its_grid(name, friction_sign,
         columns = candidate.columns(seen, value)
         assert columns.values.shape[0] == len(signals) and np.isfinite(columns.values).all()
         assert all(columns.units) and set(candidate.positive) <= set(columns.names)
+        assert columns.width or hyper is not None  # an effect adds columns or changes signals
         if candidate.friction:
             # a positive friction parameter is friction against the motion, entering the
             # explained quantity with the rig's declared sign
@@ -45,12 +50,28 @@ def test_every_candidate_gives_signed_columns_over_its_grid(name, friction_sign,
         assert candidate.identified(hyper.grid[-1]) == high
 
 
-@pytest.mark.parametrize("name", sorted(CANDIDATES))
-def test_a_candidate_says_what_a_rig_lacks_for_it(name):
-    cls = CANDIDATES[name]
-    bare = Setting(None, "x", ("x", "v", "a"))
-    why = cls.missing(bare)
-    needs_p, needs_sign = "P" in cls.requires, cls.friction
-    assert (why is None) == (not needs_p and not needs_sign), why
-    if needs_p:
-        assert "['P']" in why
+def test_the_library_is_generated_from_the_rigs_channels():
+    names = set(library(Setting(1, "q", ("q", "v", "a", "u"))))
+    # a rig with position q and an input u: friction modulated by both, timing on both
+    assert {"coulomb.q", "coulomb.u", "viscous.u", "delay.q", "delay.u", "lag.u"} <= names
+    assert not any(n.endswith((".P", ".x")) for n in names)
+    # a direction-dependent Coulomb level is not identifiable against a free offset
+    assert "coulomb.direction" not in names and "viscous.direction" in names
+    # no declared friction sign: no friction candidate; no position: no elastic or motion ones
+    assert not any(n.split(".")[0] in ("coulomb", "viscous", "stribeck")
+                   for n in library(Setting(None, "x", ("x", "v", "a"))))  # fmt: skip
+    assert set(library(Setting(None, None, ("u",)))) == {"zero_drift", "delay.u", "lag.u"}
+
+
+def test_special_cases_are_refinements_not_rivals():
+    lib = library(RICH)
+    assert lib["viscous"].special_case_of(lib["viscous.direction"])
+    assert "coulomb" not in lib  # the level's change is refitted in the loop's base
+    assert not lib["viscous.direction"].special_case_of(lib["viscous"])
+    assert not lib["coulomb.x"].special_case_of(lib["coulomb.P"])
+    assert not lib["delay.x"].special_case_of(lib["lag.x"])
+
+
+def test_an_effect_the_rig_cannot_show_is_a_one_line_error():
+    with pytest.raises(Exception, match=r"delay\.P.*offers"):
+        make_candidates(["delay.P"], Setting(1, "x", ("x", "v", "a")))

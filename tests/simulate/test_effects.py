@@ -4,17 +4,22 @@ import numpy as np
 import pytest
 
 from hmid.errors import ConfigError
-from hmid.simulate.dataset import DatasetConfig, DynamicLog, simulate_log
+from hmid.simulate.dataset import DatasetConfig, DynamicLog, FreeFallLog, simulate_log
 from hmid.simulate.effects import EFFECTS, make_effect
-from hmid.simulate.params import Sensors
+from hmid.simulate.params import RigParams, Sensors, SensorSpec
 from hmid.simulate.profiles import Sine
+from hmid.simulate.rig import equilibrium, integrate
 
 SENSORS = Sensors()
 PROFILE = Sine(offset=1.4e5, amplitude=1.0e5, frequency=0.5)
+RIG = RigParams()
+DT_SUB = 1.0 / (1000.0 * 20)  # the data set's substep: 1 kHz, 20 substeps
 
 
-def _simulate(effects=(), duration=6.0, seed=3):
-    spec = DynamicLog(name="e", duration=duration, profile=PROFILE, effects=tuple(effects))
+def _simulate(effects=(), duration=6.0, seed=3, sensors=None):
+    spec = DynamicLog(
+        name="e", duration=duration, profile=PROFILE, effects=tuple(effects), sensors=sensors
+    )
     return simulate_log(DatasetConfig(seed=seed, logs=(spec,)), spec)
 
 
@@ -31,11 +36,27 @@ STRONG = {  # strengths a real rig could show, large enough to be seen above sen
     "stiffness_drift": {"fraction": 0.1, "tau": 2.0},
     "rail_ripple": {"amplitude": 0.15, "wavelength": 0.003},
     "load_cell_drift": {"rate": 0.02},
+    "position_friction": {"slope": 30.0, "x_ref": 0.007},
+    "direction_viscous": {"b_pos": 6.0, "b_neg": 2.0},
+    "position_sensor_delay": {"delay": 0.016, "hold": 0.0165},
+    "muscle_damping": {"c": 6.0},
 }
 
 
 def test_every_registered_effect_is_covered():
     assert set(STRONG) == set(EFFECTS)
+
+
+@pytest.mark.parametrize("kind", sorted(EFFECTS))
+def test_every_registered_effect_builds_from_defaults_and_keeps_to_its_signals(kind, clean):
+    effect = EFFECTS[kind]()
+    assert effect.kind == kind
+    assert set(effect.signals) and set(effect.signals) <= {"P", "x", "F"}
+    params = effect.params()
+    assert make_effect({"kind": kind, **params}).params() == params  # the truth record rebuilds it
+    sim = _simulate([{"kind": kind}])
+    changed = {ch for ch in ("P", "x", "F") if np.any(sim.log[ch] != clean.log[ch])}
+    assert changed == set(effect.signals), f"{kind} changed {sorted(changed)}"
 
 
 @pytest.mark.parametrize("kind", sorted(STRONG))
@@ -104,6 +125,100 @@ def test_load_cell_drift_is_an_offset_growing_in_time(clean):
     assert slope == pytest.approx(0.02, rel=0.05)
 
 
+def _sliding(tr, speed):
+    sliding = ~tr.stuck & ~tr.contact & (np.abs(tr.v) > speed)
+    assert sliding.sum() > 1000
+    return sliding
+
+
+@pytest.mark.parametrize("span", [0.0, 0.002])
+def test_position_friction_adds_slope_times_distance_from_x_ref(span):
+    slope, x_ref = 30.0, 0.007
+    spec = {"kind": "position_friction", "slope": slope, "x_ref": x_ref, "span": span}
+    tr = _simulate([spec]).trajectory
+    sliding = _sliding(tr, 1e-3)
+    assert np.ptp(tr.x[sliding]) > 8e-3  # the travel spans both sides of x_ref
+    extra = tr.friction - np.sign(tr.v) * RIG.friction.coulomb
+    offset = tr.x - x_ref if not span else np.clip(tr.x - x_ref, -span, span)
+    expected = slope * offset * np.sign(tr.v)
+    # friction is evaluated at the position one substep before the logged x
+    atol = abs(slope) * np.abs(tr.v[sliding]) * DT_SUB + 1e-12
+    np.testing.assert_array_less(np.abs(extra[sliding] - expected[sliding]), atol * 1.01)
+
+
+@pytest.mark.parametrize(
+    ("offset", "slope", "moves"),
+    [(1.5, 0.0, True), (1.5, 60.0, False), (0.8, 0.0, False), (0.8, -60.0, True)],
+)
+def test_position_friction_raises_or_lowers_the_breakaway_level(offset, slope, moves):
+    # Start `offset` Coulomb levels of spring force from equilibrium, near x = 5 mm: a slope of
+    # +-60 N/m adds +-0.3 N (0.86 Fc) to the level that holds the block there.
+    P = 1.0e5
+    x_eq = equilibrium(RIG, P)
+    k_local = RIG.muscle.k1 + 3 * RIG.muscle.k3 * x_eq**2
+    x0 = x_eq + offset * RIG.friction.coulomb / k_local
+    effects = (make_effect({"kind": "position_friction", "slope": slope}),)
+    traj = integrate(RIG, np.full(500, P), 1000.0, effects=effects, x0=x0)
+    assert traj.stuck.all() != moves
+
+
+def test_direction_viscous_has_one_coefficient_per_direction():
+    b_pos, b_neg = 6.0, 2.0
+    tr = _simulate([{"kind": "direction_viscous", "b_pos": b_pos, "b_neg": b_neg}]).trajectory
+    sliding = _sliding(tr, 5e-3)
+    assert (tr.v[sliding] > 0).sum() > 500 and (tr.v[sliding] < 0).sum() > 500
+    b = np.where(tr.v > 0, b_pos, b_neg)
+    expected = np.sign(tr.v) * RIG.friction.coulomb + b * tr.v
+    # friction is evaluated at the velocity one substep before the logged v
+    atol = b[sliding] * np.abs(tr.a[sliding]) * DT_SUB + 1e-12
+    np.testing.assert_array_less(np.abs(tr.friction[sliding] - expected[sliding]), atol * 1.01)
+
+
+@pytest.mark.parametrize("hold", [0.0165, 0.0])
+def test_position_sensor_delay_reports_the_true_x_delayed_and_held(hold):
+    delay = 0.016
+    quiet = Sensors(x=SensorSpec(lo=0.0, hi=0.02048, noise=0.0))
+    effect = {"kind": "position_sensor_delay", "delay": delay, "hold": hold}
+    sim = _simulate([effect], sensors=quiet)
+    tr = sim.trajectory
+    # in whole microseconds: the hold instant k hold <= t - delay, exactly
+    t_us = np.rint(tr.t * 1e6).astype(np.int64)
+    due = t_us - round(delay * 1e6)
+    if hold:
+        due = (due // round(hold * 1e6)) * round(hold * 1e6)
+    expected = np.interp(due * 1e-6, tr.t, tr.x)  # before the first sample: the first value
+    np.testing.assert_array_less(np.abs(sim.log["x"] - expected), 0.5 * quiet.x.lsb + 1e-12)
+    assert np.all(sim.log["x"][tr.t < tr.t[0] + delay] == sim.log["x"][0])
+    if hold:  # steps: the reading changes at most once per hold period
+        assert np.count_nonzero(np.diff(sim.log["x"])) <= tr.t[-1] / hold + 1
+
+
+def test_muscle_damping_adds_minus_c_v_to_the_muscle_force():
+    c = 6.0
+    tr = _simulate([{"kind": "muscle_damping", "c": c}]).trajectory
+    m = RIG.muscle
+    springs = m.A_eff * tr.P + m.F0 - (m.k1 * tr.x + m.k3 * tr.x**3 + tr.q)
+    moving = _sliding(tr, 1e-3)
+    # F_m comes from the state one substep before the logged one: the springs' and the
+    # dashpot's change over that substep (dq/dt = k2 v - q / tau) bound the gap
+    dq = np.abs(m.k2 * tr.v - tr.q / m.tau)
+    bound = ((m.k1 + 3 * m.k3 * tr.x**2) * np.abs(tr.v) + dq + c * np.abs(tr.a)) * DT_SUB
+    gap = tr.F_m - springs + c * tr.v
+    np.testing.assert_array_less(np.abs(gap[moving]), 1.05 * bound[moving] + 1e-12)
+    assert np.median(np.abs(c * tr.v[moving])) > 10 * np.median(bound[moving])  # resolved
+
+
+def test_muscle_damping_needs_the_muscle_free_falls_do_not_show_it():
+    def fall(effects):
+        spec = FreeFallLog(name="ff", duration=0.3, effects=tuple(effects))
+        return simulate_log(DatasetConfig(seed=5, logs=(spec,)), spec)
+
+    clean, damped = fall(()), fall([{"kind": "muscle_damping", "c": 6.0}])
+    assert clean.log.data.equals(damped.log.data)
+    viscous = fall([{"kind": "viscous", "b": 6.0}])  # rail friction does show
+    assert not clean.log.data.equals(viscous.log.data)
+
+
 @pytest.mark.parametrize(
     ("spec", "match"),
     [
@@ -112,8 +227,15 @@ def test_load_cell_drift_is_an_offset_growing_in_time(clean):
         ({"kind": "viscous", "b": -1.0}, "must be >= 0"),
         ({"kind": "viscous", "b": "x"}, "must be a number"),
         ({"b": 1.0}, "needs a 'kind'"),
+        ({"kind": "position_friction", "slope": float("nan")}, "slope=nan must be finite"),
+        ({"kind": "direction_viscous", "b_pos": -1.0}, "b_pos=-1.0 must be >= 0"),
+        ({"kind": "direction_viscous", "b_neg": -0.5}, "b_neg=-0.5 must be >= 0"),
+        ({"kind": "position_sensor_delay", "delay": -0.01}, "delay=-0.01 must be >= 0"),
+        ({"kind": "position_sensor_delay", "hold": -0.001}, "hold=-0.001 must be >= 0"),
+        ({"kind": "muscle_damping", "c": -2.0}, "c=-2.0 must be >= 0"),
     ],
 )
 def test_bad_effect_specs_are_config_errors(spec, match):
-    with pytest.raises(ConfigError, match=match):
+    with pytest.raises(ConfigError, match=match) as error:
         make_effect(spec)
+    assert "\n" not in str(error.value)

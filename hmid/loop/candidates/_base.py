@@ -1,19 +1,22 @@
-"""Candidate effects: physics a fitted model may lack, each a small :class:`Term` subclass.
+"""Candidate effects: physics a fitted model may lack, each a :class:`Term`.
 
 A candidate adds columns to the model's balance (or transforms a channel every term reads, as a
 lagging sensor does) and names its parameters with units; its signs are fixed by the rig's
 declared conventions, never by a refitted coefficient. Friction candidates enter the explained
 quantity with the rig's friction sign (+1: friction adds to it, as for a motor that overcomes
-it; -1: it subtracts, as for a load cell behind the friction), so each fitted friction parameter
-is positive when it opposes the motion.
+it; -1: it subtracts, as for a load cell behind the friction), so each friction coefficient is
+positive when it opposes the motion.
 
-A new candidate is one module (or class) here: subclass :class:`Candidate`, set ``name``
-(registry key), ``title``, ``physics`` and ``requires`` (the channels it reads), and implement
-:meth:`columns` (and :attr:`hyper` for one profiled parameter).
+The library is *generated* from building blocks for each rig (:func:`library`): friction laws
+(a Coulomb level, viscous, Stribeck) times modulations (by direction, by any channel, in time),
+timing on any channel (a delay, a first-order lag), elastic changes and sensor drift. A new kind
+is one module here: subclass :class:`Candidate`, set ``kind`` and implement
+:meth:`Candidate.variants` (the instances it offers a rig) and :meth:`~Candidate.columns`.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -24,6 +27,8 @@ from hmid.balance.terms import unit_of
 from hmid.errors import ConfigError
 
 CANDIDATES: dict[str, type[Candidate]] = {}
+#: Channels a rig derives (never a modulation or a timing channel of their own).
+DERIVED = ("v", "a")
 
 
 @dataclass(frozen=True)
@@ -38,46 +43,70 @@ class Setting:
     def of(cls, rig: RigSection) -> Setting:
         return cls(rig.resolved_friction_sign, rig.position, rig.model_channels)
 
+    @property
+    def inputs(self) -> tuple[str, ...]:
+        """Logged channels other than the position (a pressure, a valve command)."""
+        return tuple(c for c in self.channels if c not in DERIVED and c != self.position)
+
 
 class Candidate(Term):
-    """Base class; subclasses register by ``name``."""
+    """Base class; concrete kinds register by ``kind`` and offer :meth:`variants`."""
 
-    name: ClassVar[str] = ""
-    requires: ClassVar[tuple[str, ...]] = ()  # channels it reads
+    kind: ClassVar[str] = ""
     friction: ClassVar[bool] = False  # its parameters are friction coefficients
-    elastic: ClassVar[bool] = False  # it scales the fitted model's elastic force
-    positive: ClassVar[tuple[str, ...]] = ()  # parameters that physics makes positive
+    elastic: ClassVar[bool] = False  # it reads the fitted model's elastic force
+    refines: ClassVar[bool] = True  # model columns its own span are replaced (see Term)
+
+    name: str
+    title: str
+    physics: str
+    requires: tuple[str, ...] = ()  # channels it reads
+    positive: tuple[str, ...] = ()  # parameters that physics makes positive
 
     def __init__(self, setting: Setting) -> None:
         self.setting = setting
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
-        if cls.name:
-            CANDIDATES[cls.name] = cls
+        if cls.kind:
+            CANDIDATES[cls.kind] = cls
 
     @classmethod
-    def missing(cls, setting: Setting) -> str | None:
-        """Why the candidate does not apply to a rig (None if it does)."""
-        absent = [c for c in cls.requires if c not in setting.channels]
-        if absent:
-            return f"reads {absent}, which the rig does not give"
-        if cls.friction and setting.friction_sign is None:
-            return "needs the rig's friction sign (a Coulomb term, or rig.friction_sign)"
-        return None
+    def variants(cls, setting: Setting) -> Iterator[Candidate]:
+        """The instances this kind offers a rig with ``setting`` (none it cannot show)."""
+        yield from ()
 
     @property
     def reads(self):
         return self.requires
 
+    @property
+    def follows(self) -> str:
+        """What the effect's size follows (a channel, "t", "speed"): what a test must vary,
+        with the rest held, to show it."""
+        return self.requires[0] if self.requires else "t"
+
+    def signs_hold(self, upper: dict[str, float]) -> bool:
+        """Whether fitted intervals (their ``upper`` bounds, by positive parameter present in
+        the fit) are consistent with the physical signs."""
+        return all(u > 0 for u in upper.values())
+
+    def special_case_of(self, other: Candidate) -> bool:
+        """Whether ``other`` contains this effect (viscous in direction-dependent viscous): then
+        the two are one explanation, refined, not rival ones."""
+        return False
+
     def __repr__(self) -> str:
-        return f"{type(self).__name__}()"
+        return f"{type(self).__name__}({self.name!r})"
 
     def __eq__(self, other: object) -> bool:  # equal candidates share cached columns
-        return type(self) is type(other) and self.setting == other.setting
+        return type(self) is type(other) and (self.name, self.setting) == (
+            other.name,
+            other.setting,
+        )
 
     def __hash__(self) -> int:
-        return hash((type(self), self.setting))
+        return hash((type(self), self.name, self.setting))
 
     # -- helpers for subclasses ---------------------------------------------------------------
     @property
@@ -105,14 +134,25 @@ def stack(signals: Signals, *columns: Column) -> Columns:
     return Columns.stack(len(signals), list(columns))
 
 
+def hyper(name: str, unit: str, grid, edges=(True, True), log=True) -> Hyper:
+    return Hyper(name, unit, tuple(float(g) for g in grid), edges, log)
+
+
+def library(setting: Setting) -> dict[str, Candidate]:
+    """Every candidate the rig can show, by name, in registry order."""
+    out: dict[str, Candidate] = {}
+    for cls in CANDIDATES.values():
+        for candidate in cls.variants(setting):
+            out[candidate.name] = candidate
+    return out
+
+
 def make_candidates(names, setting: Setting) -> tuple[Candidate, ...]:
-    unknown = [n for n in names if n not in CANDIDATES]
+    available = library(setting)
+    unknown = [n for n in names if n not in available]
     if unknown:
         raise ConfigError(
-            f"loop.candidates: unknown effect(s) {unknown}; known: {sorted(CANDIDATES)}"
+            f"loop.candidates: {unknown} are not effects this rig can show; it offers "
+            f"{sorted(available)}"
         )
-    return tuple(CANDIDATES[n](setting) for n in names)
-
-
-def hyper(name: str, unit: str, grid, edges=(True, True), log=True) -> Hyper:
-    return Hyper(name, unit, tuple(grid), edges, log)
+    return tuple(available[n] for n in names)

@@ -1,88 +1,124 @@
-"""Effects in time: a lag of the measured pressure, slow drift of stiffness or of the force zero."""
+"""A channel measured late: a pure delay (transport, a slow bus, a sample-and-hold) or a
+first-order lag (a filter, pneumatic tubing), on the position or on any input channel.
+
+Each transforms the channel every term reads (a late position also makes its velocity and
+acceleration late). A sample-and-hold of period h acts, through the smoother, as a delay of h/2;
+its steps are not offered as their own effect. A delay and a lag shift the phase alike at low
+frequency and differ only in how they attenuate: the loop tells them apart only when the motion's
+bandwidth allows, and otherwise reports them as one timing effect of that channel.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from typing import ClassVar
 
 import numpy as np
 
 from hmid.balance import Signals, raw
 from hmid.balance.operations import lagged
-from hmid.loop.candidates._base import Candidate, hyper, stack
+from hmid.loop.candidates._base import Candidate, Setting, hyper, stack
 
-_DRIFT_TIMES = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 1000.0)
-#: The column the loop puts the fitted model's elastic force in (for stiffness drift).
-ELASTIC = "fit:elastic"
+DELAYS = tuple(np.round(np.arange(0.0, 0.1001, 0.0025), 4))
+LAGS = tuple(np.round(np.geomspace(0.001, 0.2, 24), 5))
 
 
-class PressureLag(Candidate):
-    name: ClassVar[str] = "pressure_lag"
-    requires: ClassVar[tuple[str, ...]] = ("P",)
-    title: ClassVar[str] = "pressure measured late"
-    physics: ClassVar[str] = (
-        "the pressure that acts leads the measured one by a delay d (sensor tubing, filtering, "
-        "sensor far from the actuator): the model is given P(t + d) instead of P(t)"
-    )
+class _Timing(Candidate):
+    """Timing of ``channel``: its transform changes the channel (and its derivatives)."""
 
-    @property
-    def hyper(self):
-        grid = np.round(np.arange(0.0, 0.1001, 0.0025), 4)
-        return hyper("d", "s", grid, (False, False), log=False)
+    word: ClassVar[str] = ""
+
+    def __init__(self, setting: Setting, channel: str) -> None:
+        super().__init__(setting)
+        self.channel = channel
+        self.name = f"{self.word}.{channel}"
+        self.requires = (channel,)
 
     @property
-    def margins(self):
-        return (0.0, 0.1)  # past a segment's end the lead is unknown: never fitted there
+    def follows(self) -> str:
+        return f"the rate of change of {self.channel}"
+
+    @classmethod
+    def variants(cls, setting: Setting) -> Iterator[Candidate]:
+        for channel in (setting.position, *setting.inputs):
+            if channel is not None:
+                yield cls(setting, channel)
+
+    @property
+    def _chain(self) -> tuple[str, ...]:
+        """The channel and what is derived from it."""
+        if self.channel == self.setting.position:
+            return (self.channel, "v", "a")
+        return (self.channel,)
+
+    def columns(self, signals, value):
+        return stack(signals)  # it only changes what the other terms see
 
     def transform(self, signals: Signals, value):
         if not value:
             return signals
-        return signals.with_columns(
-            P=lagged(signals, signals["P"], -value, "delay"),
-            **{raw("P"): lagged(signals, signals[raw("P")], -value, "delay")},
+        changed = {}
+        for c in self._chain:
+            for name in (c, raw(c)):
+                if name in signals:
+                    changed[name] = self._undo(signals, name, value)
+        return signals.with_columns(**changed)
+
+    def _undo(self, signals: Signals, name: str, value: float) -> np.ndarray:
+        raise NotImplementedError
+
+
+class Delay(_Timing):
+    kind: ClassVar[str] = "delay"
+    word: ClassVar[str] = "delay"
+
+    def __init__(self, setting: Setting, channel: str) -> None:
+        super().__init__(setting, channel)
+        self.title = f"{channel} measured late"
+        self.physics = (
+            f"the {channel} that acts leads the logged one by a delay d (transport, a slow bus or "
+            f"camera, a sample-and-hold of period 2d): the model is given {channel}(t + d)"
         )
 
-    def columns(self, signals, value):
-        return stack(signals)
+    @property
+    def hyper(self):
+        return hyper("d", "s", DELAYS, (False, False), log=False)
+
+    @property
+    def margins(self):
+        return (0.0, DELAYS[-1])  # past a segment's end the lead is unknown: never fitted there
+
+    def _undo(self, signals, name, value):
+        return lagged(signals, signals[name], -value, "delay")
 
 
-def _drift(signals: Signals, tau: float) -> np.ndarray:
-    """1 - exp(-t/T), scaled to 1 at the longest segment's last time: its coefficient is the
-    change over that span whatever T, so a long T is a straight-line drift, not a huge number."""
-    t = signals["t"]
-    return np.expm1(-t / tau) / np.expm1(-t.max() / tau)
+class Lag(_Timing):
+    kind: ClassVar[str] = "lag"
+    word: ClassVar[str] = "lag"
 
-
-class StiffnessDrift(Candidate):
-    name: ClassVar[str] = "stiffness_drift"
-    elastic: ClassVar[bool] = True
-    title: ClassVar[str] = "stiffness drift"
-    physics: ClassVar[str] = (
-        "the elastic force changes slowly over a test, (1 - f g(t)) x elastic force with "
-        "g = (1 - exp(-t/T)) scaled to 1 at the end of the longest log: the latex warms up or "
-        "its network relaxes (f > 0: softening by the fraction f over the test)"
-    )
+    def __init__(self, setting: Setting, channel: str) -> None:
+        super().__init__(setting, channel)
+        self.title = f"{channel} measured through a lag"
+        self.physics = (
+            f"the logged {channel} follows the true one through a first-order lag of time "
+            f"constant T (a filter, tubing, a thermal sensor): the model is given "
+            f"{channel} + T d{channel}/dt"
+        )
 
     @property
     def hyper(self):
-        return hyper("T", "s", _DRIFT_TIMES)
-
-    def columns(self, signals, value):
-        # the elastic force enters the balance with its sign: softening takes a share f of it
-        values = -_drift(signals, value) * signals[ELASTIC]
-        return stack(signals, self.column(signals, "f", values, unit="1"))
-
-
-class ForceZeroDrift(Candidate):
-    name: ClassVar[str] = "force_zero_drift"
-    title: ClassVar[str] = "force sensor zero drift"
-    physics: ClassVar[str] = (
-        "the force channel's zero moves slowly over a test (temperature, creep of the strain "
-        "gauge): reading = force + D g(t), g as for stiffness drift, D the drift over the test"
-    )
+        return hyper("T", "s", LAGS, (False, False))
 
     @property
-    def hyper(self):
-        return hyper("T", "s", _DRIFT_TIMES)
+    def margins(self):
+        return (0.0, 0.0)
 
-    def columns(self, signals, value):
-        return stack(signals, self.column(signals, "D", _drift(signals, value)))
+    def _undo(self, signals, name, value):
+        # the inverse of T y' + y = u is u = y + T y', with y' of the smoothed channel (a raw
+        # channel's own derivative would be its noise amplified)
+        smooth = name.removeprefix("raw:")
+        slope = np.empty(len(signals))
+        t, y = signals["t"], signals[smooth]
+        for rows in signals.segments():
+            slope[rows] = np.gradient(y[rows], t[rows]) if len(rows) > 1 else 0.0
+        return signals[name] + value * slope

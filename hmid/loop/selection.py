@@ -1,0 +1,95 @@
+"""Selection kept apart from the reported error: blocked cross-validation on the training rows.
+
+Training rows are cut into contiguous time blocks (``block_s`` long, within each segment), dealt
+to ``folds`` folds in turn. Each fold is predicted by the model fitted on the other folds, with
+every profiled parameter held at its training value; so every training row gets an out-of-fold
+residual, and the comparison's held-out rows (where the loop reports its before and after) are
+never seen by a decision. The block bootstrap (blocks drawn with replacement, from the
+experiment's seed) gives the uncertainty of the change in out-of-fold RMSE, on the same blocks.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hmid.balance import Signals, Structure
+from hmid.balance import fit as fit_structure
+
+
+@dataclass(frozen=True)
+class Folds:
+    """Training rows in time blocks, each block in one fold."""
+
+    block: np.ndarray  # block index of every row (-1: not a training row)
+    fold: np.ndarray  # fold of each block
+
+    @classmethod
+    def of(cls, signals: Signals, folds: int, block_s: float) -> Folds:
+        block = np.full(len(signals), -1)
+        train, t, count = signals.train, signals["t"], 0
+        for rows in signals.segments():
+            rows = rows[train[rows]]
+            if not len(rows):
+                continue
+            index = np.floor((t[rows] - t[rows[0]]) / block_s).astype(int)
+            _, index = np.unique(index, return_inverse=True)
+            block[rows] = count + index
+            count += int(index.max()) + 1
+        return cls(block, np.arange(count) % folds)
+
+    @property
+    def blocks(self) -> int:
+        return len(self.fold)
+
+    def rows(self, k: int) -> np.ndarray:
+        """Rows of fold ``k`` (mask)."""
+        return (self.block >= 0) & (self.fold[np.maximum(self.block, 0)] == k)
+
+    def block_sums(self, values: np.ndarray) -> np.ndarray:
+        inside = self.block >= 0
+        return np.bincount(self.block[inside], weights=values[inside], minlength=self.blocks)
+
+
+def out_of_fold(structure: Structure, signals: Signals, folds: Folds) -> np.ndarray:
+    """The residual of each training row predicted by the fit on the other folds (NaN
+    elsewhere); profiled parameters stay at ``structure``'s values."""
+    residual = np.full(len(signals), np.nan)
+    for k in range(int(folds.fold.max()) + 1 if folds.blocks else 0):
+        held = folds.rows(k)
+        fitted = fit_structure(structure, signals, rows=signals.train & ~held)
+        residual[held] = fitted.residual[held]
+    return residual
+
+
+@dataclass(frozen=True)
+class Change:
+    """Relative change of the out-of-fold RMSE (negative: better), with its bootstrap bound."""
+
+    change: float
+    upper: float  # one-sided upper bound at the confidence (the change is at most this)
+    lower: float
+
+    def better(self, margin: float) -> bool:
+        """Confidently better: even the upper bound lowers the RMSE by more than ``margin``."""
+        return self.upper < -margin
+
+
+def bootstrap(draws: int, blocks: int, seed: int) -> np.ndarray:
+    """Counts (draws, blocks) of each block in each resample, from ``seed``: the same resamples
+    for every comparison of a run, so paired differences share them."""
+    rng = np.random.default_rng(seed)
+    return rng.multinomial(blocks, np.full(blocks, 1.0 / blocks), size=draws)
+
+
+def change(
+    before: np.ndarray, after: np.ndarray, folds: Folds, counts: np.ndarray, confidence: float
+) -> Change:
+    """The relative change sqrt(SSE_after / SSE_before) - 1 of two out-of-fold residuals."""
+    s0 = folds.block_sums(np.nan_to_num(before) ** 2)
+    s1 = folds.block_sums(np.nan_to_num(after) ** 2)
+    point = float(np.sqrt(s1.sum() / s0.sum()) - 1.0)
+    resampled = np.sqrt((counts @ s1) / (counts @ s0)) - 1.0
+    return Change(point, float(np.quantile(resampled, confidence)),
+                  float(np.quantile(resampled, 1.0 - confidence)))  # fmt: skip
