@@ -139,6 +139,20 @@ def _substep(c: _Constants, effects, dt, held, P_cmd, state):
     )
 
 
+def _reading(c: _Constants, effects, state):
+    """Acceleration, friction and muscle force *at* the sample instant, from the state the
+    sample logs: forces of the last substep's start would lag the logged position by a
+    substep, which identification reads as negative damping (stiffness x 50 us)."""
+    t, x, v, q, P, stuck = state
+    F_app = _muscle_force(c, effects, t, x, v, q, P) - c.m1 * c.g
+    sliding = jnp.sign(v) * c.Fc + sum(e.sliding(v, P, x) for e in effects)
+    at_stop = ((x <= c.x_min) & (F_app < 0)) | ((x >= c.x_max) & (F_app > 0))
+    # stuck: static friction (or an end stop) holds the applied force
+    friction = jnp.where(stuck, jnp.where(at_stop, 0.0, F_app), sliding)
+    a = jnp.where(stuck, 0.0, (F_app - sliding) / (c.M + c.m1))
+    return a, friction, F_app + c.m1 * c.g
+
+
 def _integrate(c, effects, P_cmd, held, init, dt, substeps: int):
     def sample(state, inputs):
         P_c, hold = inputs
@@ -149,9 +163,10 @@ def _integrate(c, effects, P_cmd, held, init, dt, substeps: int):
             return st, (a, f, F_m), touched | contact, jnp.minimum(t_min, tension)
 
         zero = jnp.zeros(())
-        state, (a, f, F_m), touched, t_min = jax.lax.fori_loop(
+        state, _, touched, t_min = jax.lax.fori_loop(
             0, substeps, body, (state, (zero, zero, zero), False, jnp.inf)
         )
+        a, f, F_m = _reading(c, effects, state)
         _, x, v, q, P, stuck = state
         return state, (P, x, v, a, F_m, f, q, stuck, touched, t_min)
 

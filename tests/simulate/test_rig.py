@@ -75,22 +75,17 @@ def _constitutive(rig, traj):
 @pytest.mark.parametrize("profile", [Sine(), Steps(levels=(5e4, 1e5, 1.5e5), hold=0.7)])
 def test_load_cell_plus_friction_is_the_muscle_law_eq_4_1_4_2(profile):
     # What identification sees: F_l + f (eqs. 4.1, 4.2) against F_m = f(x, q, P) at the logged
-    # state. The gap is the integrator's first-order lag of one substep, so it must shrink in
-    # proportion to the substep: 4x more substeps, ~4x smaller (first-order convergence).
+    # state. The reading is evaluated at that state, so they agree to rounding: forces of the
+    # last substep's start lagged the position by a substep, which the loop read as negative
+    # damping of stiffness x 50 us (a Stribeck-like effect "found" in clean data).
     t = _time(3.0)
     P_cmd = profile.command(t, None)
-    errors = []
     for substeps in (10, 40):
         traj = integrate(RIG, P_cmd, RATE, substeps=substeps)
         load_cell = MASS * traj.a + RIG.m1 * RIG.g
         ok = ~traj.contact
         gap = load_cell[ok] + traj.friction[ok] - _constitutive(RIG, traj)[ok]
-        errors.append(np.sqrt(np.mean(gap**2)))
-        # bound: the elastic force's change over one substep, (k_local + k2) |v| dt_sub (RMS)
-        m = RIG.muscle
-        elastic_rate = (m.k1 + 3 * m.k3 * traj.x**2 + m.k2) * traj.v
-        assert errors[-1] <= 1.5 * np.sqrt(np.mean(elastic_rate**2)) / (RATE * substeps)
-    assert 3.0 < errors[0] / errors[1] < 5.0
+        assert np.sqrt(np.mean(gap**2)) < 1e-12
 
 
 def _energy(rig, traj, P):
