@@ -40,9 +40,9 @@ def separating(a: Candidate, b: Candidate, signals: Signals) -> str:
         f"{a.name} follows {fa}, {b.name} follows {fb}: vary {fa} with {fb} held fixed, "
         f"and the reverse"
     )
+    if "t" in (fa, fb):
+        return text + " (repeat a test later, or in the reverse order: a drift follows the clock)"
     r = _correlation(signals, fa, fb)
     if r is not None:
         text += f" (on these training rows they move together: r = {r:+.2f})"
-    elif "t" in (fa, fb):
-        text += " (repeat a test later, or in the reverse order: a drift follows the clock)"
     return text

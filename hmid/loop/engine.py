@@ -95,7 +95,7 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
     signals = with_elastic(signals, current, setting.position)
     has_elastic = bool(np.any(signals[ELASTIC])) if ELASTIC in signals else False
     remaining = [c for c in candidates if has_elastic or not c.elastic]
-    rows, effects = [], []
+    rows, effects, steps = [], [], []
     for round_no in range(1, spec.max_effects + 1):
         signals = with_elastic(signals, current, setting.position)
         screened = [screen(current, c, signals, spec.confidence) for c in remaining]
@@ -125,21 +125,23 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
         # BIC on one sample size ranks the selected: of two that fit alike, the simpler
         best = min(selected, key=lambda i: table[i]["ΔBIC (common n_eff)"])
         table[best]["added"] = True
-        alternatives = _alternatives(best, screened, oof, table, signals, folds, counts, spec)
+        alternatives = _alternatives(best, screened, oof, table, signals, folds, counts, spec,
+                                     current.columns.names)  # fmt: skip
         chosen = screened[best]
         trial = profile(chosen.joint.structure, signals)  # every parameter afresh, jointly
         effects.append(make_effect(chosen, trial, current, signals, table[best], folds,
                                    spec.confidence, alternatives))  # fmt: skip
         remaining.remove(chosen.candidate)
         current = trial
+        steps.append((effects[-1].name, current.scores(held)))  # reported, never decided on
         # only the structure scan decides whether to go on; the full diagnostics come at the end
         strongest = structure_scan(current.residual, signals.train, signals)["eta2"].max()
         if strongest < spec.structure_threshold:
             break
-    return finish(spec, signals, base, start, current, effects, pd.DataFrame(rows), held)
+    return finish(spec, signals, base, start, current, effects, pd.DataFrame(rows), held, steps)
 
 
-def _alternatives(best, screened, oof, table, signals, folds, counts, spec) -> tuple:
+def _alternatives(best, screened, oof, table, signals, folds, counts, spec, model) -> tuple:
     """Rival physics that cross-validates not clearly worse than the best: indistinguishable."""
     chosen = screened[best].candidate
     out = []
@@ -154,7 +156,7 @@ def _alternatives(best, screened, oof, table, signals, folds, counts, spec) -> t
         s: Screen = screened[i]
         out.append(Alternative(
             s.candidate.name, s.candidate.title, s.candidate.physics,
-            own_parameters(s.candidate, s.joint, s.interval, signals, spec.confidence),
+            own_parameters(s.candidate, s.joint, s.interval, signals, spec.confidence, model),
             gap.change, separating(chosen, s.candidate, signals),
         ))  # fmt: skip
     return tuple(sorted(out, key=lambda a: a.gap))

@@ -13,12 +13,16 @@ from hmid.report import Figure, Section, Table
 
 
 def before_after(result: LoopResult) -> pd.DataFrame:
+    """Held-out scores of the base, after each added effect in turn, and after all."""
     rows = []
     unit = result.unit
-    for label, s in (
-        (f"before: {result.base_name}", result.before),
-        (f"after: {result.after_name}", result.after),
-    ):
+    labelled = [(f"before: {result.base_name}", result.before)]
+    name = result.base_name
+    for effect, scores in result.steps[:-1]:
+        name += f" + {effect}"
+        labelled.append((f"step: {name}", scores))
+    labelled.append((f"after: {result.after_name}", result.after))
+    for label, s in labelled:
         rows.append(
             {
                 "model": label,

@@ -68,6 +68,8 @@ class LoopResult:
     data: Signals | None = field(default=None, repr=False)  # the rows analysed
     residual_before: np.ndarray = field(default_factory=lambda: np.empty(0), repr=False)
     residual_after: np.ndarray = field(default_factory=lambda: np.empty(0), repr=False)
+    # held-out scores after each added effect in turn (reported, never decided on)
+    steps: tuple[tuple[str, Scores], ...] = ()
 
     @property
     def first_effect(self) -> str | None:
@@ -79,13 +81,17 @@ class LoopResult:
         return self.effects[0].named if self.effects else ()
 
 
-def own_parameters(candidate, fitted: StructureFit, interval, signals: Signals, confidence):
+def own_parameters(
+    candidate, fitted: StructureFit, interval, signals: Signals, confidence, model=()
+):
     """A candidate's own parameters in ``fitted`` (intervals on its residual's n_eff; a profiled
-    parameter keeps its profile-likelihood interval)."""
+    parameter keeps its profile-likelihood interval), less those the ``model`` names already
+    had (a Coulomb level the candidate shares with it)."""
     tau_int = residual_tau_int(fitted.residual, signals)
     table = parameters(fitted, signals, tau_int, confidence)
     own_columns = set(candidate.columns(fitted.structure.seen(signals),
                                         fitted.structure.terms[-1].value).names)  # fmt: skip
+    own_columns -= set(model)
     own = table[table["parameter"].isin(own_columns)].drop(columns=["positive"])
     if candidate.hyper is not None:
         hyper = candidate.hyper
@@ -102,7 +108,8 @@ def make_effect(screened, trial: StructureFit, current: StructureFit, signals: S
     """The added effect (``screened``: its screen) with parameters from ``trial``, the joint fit
     every parameter was profiled afresh in."""
     candidate = screened.candidate
-    table = own_parameters(candidate, trial, screened.interval, signals, confidence)
+    table = own_parameters(candidate, trial, screened.interval, signals, confidence,
+                           current.columns.names)  # fmt: skip
     text = (
         f"round {evidence['round']}, training rows: F = {evidence['F']:.1f} on n_eff = "
         f"{evidence['n_eff']:.0f}, Holm-adjusted p = {evidence['p (Holm)']:.2g}, "
@@ -119,7 +126,7 @@ def _residual_before(signals: Signals, prediction: np.ndarray) -> np.ndarray:
     return signals.target - prediction
 
 
-def finish(spec, signals, base, start, current, effects, tests, held) -> LoopResult:
+def finish(spec, signals, base, start, current, effects, tests, held, steps=()) -> LoopResult:
     """Diagnostics before (the base model's own residual) and after, and the verdict; the
     held-out error before and after on ``held``, the comparison's held-out rows (a lead's reach
     at segment ends is left out of the tests, not of the reported error)."""
@@ -182,4 +189,5 @@ def finish(spec, signals, base, start, current, effects, tests, held) -> LoopRes
         data=signals,
         residual_before=residual_before,
         residual_after=current_residual,
+        steps=tuple(steps),
     )
