@@ -223,8 +223,9 @@ def build_parser() -> argparse.ArgumentParser:
         "strength and seed, simulate logs with the effect switched on but not declared, run the "
         "standard stages through the loop, and record which effect the loop names first. Clean "
         "logs are the negative controls. Writes results/<suite>/<run-id>/: blind.md and "
-        "blind.csv (effect x strength: right first, effects added, 'unexplained structure', "
-        "held-out RMSE before/after), targets.csv (the pass marks), outcomes.csv and "
+        "blind.csv (effect x strength: right first, alone or among indistinguishable rivals, "
+        "confidently wrong, effects added, 'unexplained structure', held-out RMSE before/after "
+        "on rows no decision saw), targets.csv (the pass marks), outcomes.csv and "
         "cases/<case>.json. Exit status 1 when a pass mark is missed.",
     )
     p.add_argument("config", type=Path, help="suite config (YAML), e.g. configs/blind/ci.yaml")

@@ -31,6 +31,11 @@ class _Drift(Candidate):
     def hyper(self):
         return hyper("T", "s", DRIFT_TIMES)
 
+    @classmethod
+    def variants(cls, setting: Setting) -> Iterator[Candidate]:
+        if setting.position is not None or not cls.elastic:  # an elastic force needs a position
+            yield cls(setting)
+
 
 class StiffnessDrift(_Drift):
     kind: ClassVar[str] = "stiffness_drift"
@@ -41,11 +46,6 @@ class StiffnessDrift(_Drift):
         "the elastic force changes slowly over a test, (1 - f g(t)) x elastic force: the latex "
         "warms up or its network relaxes (f > 0: softening by the fraction f over the test)"
     )
-
-    @classmethod
-    def variants(cls, setting: Setting) -> Iterator[Candidate]:
-        if setting.position is not None:
-            yield cls(setting)
 
     def columns(self, signals, value):
         # the elastic force enters the balance with its sign: softening takes a share f of it
@@ -64,11 +64,6 @@ class PreloadDrift(_Drift):
         "hardly changes with x it is a force offset drifting, like a sensor's zero"
     )
 
-    @classmethod
-    def variants(cls, setting: Setting) -> Iterator[Candidate]:
-        if setting.position is not None:
-            yield cls(setting)
-
     def columns(self, signals, value):
         values = -drift(signals, value) * signals[STIFFNESS]
         return stack(
@@ -84,10 +79,6 @@ class ZeroDrift(_Drift):
         "the explained channel's zero moves slowly over a test (temperature, creep of a strain "
         "gauge): reading = force + D g(t), D the drift over the test"
     )
-
-    @classmethod
-    def variants(cls, setting: Setting) -> Iterator[Candidate]:
-        yield cls(setting)
 
     def columns(self, signals, value):
         return stack(signals, self.column(signals, "D", drift(signals, value)))

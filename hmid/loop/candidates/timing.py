@@ -27,12 +27,16 @@ class _Timing(Candidate):
     """Timing of ``channel``: its transform changes the channel (and its derivatives)."""
 
     word: ClassVar[str] = ""
+    title_text: ClassVar[str] = ""  # "{c}" is the channel
+    physics_text: ClassVar[str] = ""
 
     def __init__(self, setting: Setting, channel: str) -> None:
         super().__init__(setting)
         self.channel = channel
         self.name = f"{self.word}.{channel}"
         self.requires = (channel,)
+        self.title = self.title_text.format(c=channel)
+        self.physics = self.physics_text.format(c=channel)
 
     @property
     def follows(self) -> str:
@@ -71,14 +75,11 @@ class _Timing(Candidate):
 class Delay(_Timing):
     kind: ClassVar[str] = "delay"
     word: ClassVar[str] = "delay"
-
-    def __init__(self, setting: Setting, channel: str) -> None:
-        super().__init__(setting, channel)
-        self.title = f"{channel} measured late"
-        self.physics = (
-            f"the {channel} that acts leads the logged one by a delay d (transport, a slow bus or "
-            f"camera, a sample-and-hold of period 2d): the model is given {channel}(t + d)"
-        )
+    title_text: ClassVar[str] = "{c} measured late"
+    physics_text: ClassVar[str] = (
+        "the {c} that acts leads the logged one by a delay d (transport, a slow bus or camera, "
+        "a sample-and-hold of period 2d): the model is given {c}(t + d)"
+    )
 
     @property
     def hyper(self):
@@ -95,15 +96,11 @@ class Delay(_Timing):
 class Lag(_Timing):
     kind: ClassVar[str] = "lag"
     word: ClassVar[str] = "lag"
-
-    def __init__(self, setting: Setting, channel: str) -> None:
-        super().__init__(setting, channel)
-        self.title = f"{channel} measured through a lag"
-        self.physics = (
-            f"the logged {channel} follows the true one through a first-order lag of time "
-            f"constant T (a filter, tubing, a thermal sensor): the model is given "
-            f"{channel} + T d{channel}/dt"
-        )
+    title_text: ClassVar[str] = "{c} measured through a lag"
+    physics_text: ClassVar[str] = (
+        "the logged {c} follows the true one through a first-order lag of time constant T (a "
+        "filter, tubing, a thermal sensor): the model is given {c} + T d{c}/dt"
+    )
 
     @property
     def hyper(self):
