@@ -13,6 +13,7 @@ samples even a negligible ``rho`` is significant, hence the optional ``min_abs_r
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -84,16 +85,33 @@ def corner_plot(
             f"corner_plot: {len(result.chain)} posterior draws are too few for {dim} parameters"
         )
     fig = Figure(figsize=(2.0 * dim + 1.0, 2.0 * dim + 1.0))
-    corner.corner(
-        result.chain,
-        labels=labels,
-        truths=truths,
-        quantiles=[0.05, 0.5, 0.95],
-        show_titles=True,
-        title_fmt=".3g",
-        fig=fig,
-    )
+    root = logging.getLogger()
+    quiet = _Without("Too few points to create valid contours")
+    root.addFilter(quiet)  # corner logs it for tight pairs, whose scatter still shows them
+    try:
+        corner.corner(
+            result.chain,
+            labels=labels,
+            truths=truths,
+            quantiles=[0.05, 0.5, 0.95],
+            show_titles=True,
+            title_fmt=".3g",
+            fig=fig,
+        )
+    finally:
+        root.removeFilter(quiet)
     return _save(fig, path)
+
+
+class _Without(logging.Filter):
+    """Drops log records whose message starts with ``text``."""
+
+    def __init__(self, text: str) -> None:
+        super().__init__()
+        self.text = text
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not record.getMessage().startswith(self.text)
 
 
 def lag1_autocorrelation(residual: np.ndarray) -> tuple[float, float]:
