@@ -79,6 +79,7 @@ class Manifest:
     inputs: dict[str, str] = field(default_factory=dict)
     stages: dict[str, float] = field(default_factory=dict)
     cache: dict[str, bool] = field(default_factory=dict)  # stage -> read from the cache
+    reused: dict[str, str] = field(default_factory=dict)  # model -> stored work it read back
     started: str = field(default_factory=_now)
     status: str = "running"
     error: str | None = None
@@ -109,6 +110,7 @@ class Manifest:
                 "finished": None if self.status == "running" else _now(),
                 "stage_wall_s": {k: round(v, 4) for k, v in self.stages.items()},
                 "stage_cached": self.cache,
+                "reused": self.reused,
             },
         )
 

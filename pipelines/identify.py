@@ -74,6 +74,7 @@ def run(
         artifacts = runner.run(STAGES, config)
         folder.manifest.stages = {name: r.wall_s for name, r in runner.records.items()}
         folder.manifest.cache = {name: r.cached for name, r in runner.records.items()}
+        folder.manifest.reused = {f.name: f.reused for f in artifacts["fit"] if f.reused}
         for message in findings(artifacts):  # said on every run, the cached ones too
             warnings.warn(message, HmidWarning, stacklevel=2)
         with folder.manifest.stage("report"):

@@ -112,6 +112,7 @@ class Fitted:
     equation: str
     notes: tuple[str, ...] = field(default_factory=tuple)
     findings: tuple[SignFinding, ...] = field(default_factory=tuple)
+    reused: str | None = None  # what the fit read back from stored work (e.g. an MCMC chain)
 
     def predict(self, data: FitData) -> np.ndarray:
         return np.asarray(self.model.predict(data), dtype=float)

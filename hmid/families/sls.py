@@ -148,8 +148,6 @@ class SLSSpec(FamilySpec):
         fingerprint = f"{digest.hexdigest()[:16]}-{noise}-{context.seed}"
         context.workdir.mkdir(parents=True, exist_ok=True)
         chain_path = context.workdir / f"sls-chain-{fingerprint}.h5"
-        if context.force:
-            chain_path.unlink(missing_ok=True)  # --force: a fresh chain, not a continued one
         result = run_sampler(
             model.log_prob_fn(data),
             start.theta,
@@ -162,6 +160,7 @@ class SLSSpec(FamilySpec):
             backend_path=chain_path,
             names=model.space.names,
             fingerprint=fingerprint,
+            fresh=context.force,  # --force: a fresh chain, not a continued one
         )
         fitted = SLSFitted(
             self,
@@ -192,6 +191,7 @@ class SLSSpec(FamilySpec):
                 equation=fitted.equation(table),
                 notes=fitted.notes(),
                 findings=findings,
+                reused=fitted.reused(),
             )
         ]
 
@@ -256,7 +256,20 @@ class SLSFitted(FittedModel):
             )
         if not r.converged:
             notes.append("the chain did not reach 50 autocorrelation times: intervals are rough")
+        if r.reused_steps:
+            notes.append(self.reused())
         return (*notes, *self.start_notes)
+
+    def reused(self) -> str | None:
+        """Said when the chain was read back: the numbers are a fresh run's, the time is not."""
+        r = self.result
+        if not r.reused_steps:
+            return None
+        return (
+            f"the chain's first {r.reused_steps} of {r.n_steps} steps were read back from "
+            f"{r.backend_path} (every row checked against its digest; a fresh run stops at the "
+            "same step with the same draws)"
+        )
 
     # -- predictions on pipeline rows ---------------------------------------------------------
     def _rows(self, data: FitData):

@@ -2,25 +2,38 @@
 
 A stage's cache key hashes its name, the JSON of what it depends on in the config (its
 ``depends`` callable; the load stage includes the input files' SHA-256), the keys of its upstream
-stages, and a fingerprint of hmid's own source code. Changing a config section or an input file
-recomputes that stage and everything downstream of it; anything else is read back from the cache.
-Cache files are written atomically, so an interrupted run never leaves a truncated entry.
+stages, a fingerprint of the source code (``hmid`` and the stage wiring in ``pipelines``) and
+the versions of the libraries that compute. Changing any of them recomputes that stage and
+everything downstream of it; anything else is read back from the cache.
+
+Entries carry a checksum (:mod:`hmid.pipeline.cache`): an altered, truncated or unreadable entry
+is recomputed with a one-line note, never used. A stage being computed holds a lock on its entry,
+so a second run with the same key waits and then reads the first run's result.
 """
 
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import inspect
 import json
-import pickle
 import time
+import warnings
 from collections.abc import Callable, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
 from typing import Any
 
-from hmid.files import atomic_path
+from filelock import FileLock, Timeout
+
+from hmid.errors import HmidWarning
+from hmid.pipeline.cache import StaleEntry, read_entry, write_entry
+
+# what computes a stage's numbers: a new version of any of them recomputes the cache
+COMPUTING = ("numpy", "scipy", "pandas", "jax", "jaxlib", "pysindy", "emcee", "statsmodels",
+             "scikit-learn", "pint", "h5py")  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -35,12 +48,25 @@ class Stage:
 
 @cache
 def code_fingerprint() -> str:
-    """SHA-256 over hmid's source files: a code change invalidates every cached stage."""
-    root = Path(__file__).resolve().parents[1]
+    """SHA-256 over the source of ``hmid`` and ``pipelines`` and the computing libraries'
+    versions: a change to any of them invalidates every cached stage."""
+    from importlib import metadata
+
     digest = hashlib.sha256()
-    for path in sorted(root.rglob("*.py")):
-        digest.update(str(path.relative_to(root)).encode())
-        digest.update(path.read_bytes())
+    for package in ("hmid", "pipelines"):
+        spec = importlib.util.find_spec(package)
+        if spec is None or not spec.submodule_search_locations:
+            digest.update(f"{package}: absent".encode())
+            continue
+        root = Path(next(iter(spec.submodule_search_locations))).resolve()
+        for path in sorted(root.rglob("*.py")):
+            digest.update(f"{package}/{path.relative_to(root).as_posix()}".encode())
+            digest.update(path.read_bytes())
+    for name in COMPUTING:
+        try:
+            digest.update(f"{name}=={metadata.version(name)}".encode())
+        except metadata.PackageNotFoundError:
+            digest.update(f"{name} absent".encode())
     return digest.hexdigest()
 
 
@@ -82,20 +108,56 @@ class Runner:
             key = self._key(stage, config, [self.records[n].key for n in stage.inputs])
             path = self.cache_dir / f"{stage.name}-{key[:20]}.pkl"
             start = time.perf_counter()
-            if path.is_file() and not self.force:
-                with open(path, "rb") as handle:
-                    artifacts[stage.name] = pickle.load(handle)
-                cached = True
-            else:
-                upstream = {name: artifacts[name] for name in stage.inputs}
-                parameters = inspect.signature(stage.fn).parameters
-                if "workdir" in parameters:
-                    upstream["workdir"] = self.cache_dir  # for resumable side work (MCMC chains)
-                if "force" in parameters:
-                    upstream["force"] = self.force
-                artifacts[stage.name] = stage.fn(config, **upstream)
-                with atomic_path(path) as tmp, open(tmp, "wb") as handle:
-                    pickle.dump(artifacts[stage.name], handle, protocol=pickle.HIGHEST_PROTOCOL)
-                cached = False
-            self.records[stage.name] = StageRecord(key, cached, time.perf_counter() - start)
+            self.cache_dir.mkdir(parents=True, exist_ok=True)
+            with _locked(path, f"stage {stage.name!r}"):
+                found = None if self.force else self._read(stage, path)
+                if found is not None:
+                    artifacts[stage.name] = found[0]
+                else:
+                    upstream = {name: artifacts[name] for name in stage.inputs}
+                    parameters = inspect.signature(stage.fn).parameters
+                    if "workdir" in parameters:
+                        upstream["workdir"] = self.cache_dir  # resumable side work (MCMC chains)
+                    if "force" in parameters:
+                        upstream["force"] = self.force
+                    artifacts[stage.name] = stage.fn(config, **upstream)
+                    write_entry(path, artifacts[stage.name])
+            record = StageRecord(key, found is not None, time.perf_counter() - start)
+            self.records[stage.name] = record
         return artifacts
+
+    @staticmethod
+    def _read(stage: Stage, path: Path) -> tuple[Any] | None:
+        """``(artifact,)`` from a valid entry; None (with a note if one was there) otherwise."""
+        if not path.exists():
+            return None
+        try:
+            return (read_entry(path),)
+        except StaleEntry as why:
+            warnings.warn(
+                f"{path}: cache entry {why}; recomputing stage {stage.name!r}",
+                HmidWarning,
+                stacklevel=3,
+            )
+            return None
+
+
+@contextmanager
+def _locked(path: Path, what: str):
+    """Hold ``locks/<name>.lock`` beside ``path`` while ``what`` is computed; a second run
+    waits (and says so)."""
+    (path.parent / "locks").mkdir(exist_ok=True)
+    lock = FileLock(path.parent / "locks" / f"{path.name}.lock")
+    try:
+        lock.acquire(timeout=0)
+    except Timeout:
+        warnings.warn(
+            f"{path}: another run is computing {what}; waiting for it (its result is reused)",
+            HmidWarning,
+            stacklevel=3,
+        )
+        lock.acquire()
+    try:
+        yield
+    finally:
+        lock.release()

@@ -1,10 +1,17 @@
-"""The stage runner: cache reuse, invalidation by config and upstream, --force, missing inputs."""
+"""The stage runner: cache reuse, invalidation by config, upstream, code and library versions,
+--force, missing inputs, damaged entries (recomputed, never used) and concurrent runs (locked)."""
 
+import pickle
+import threading
+import time
+import warnings
 from dataclasses import dataclass
 
 import pytest
 
+from hmid.errors import HmidWarning
 from hmid.pipeline import Runner, Stage
+from hmid.pipeline.cache import read_entry
 
 
 @dataclass(frozen=True)
@@ -66,7 +73,7 @@ def test_force_recomputes_all(tmp_path):
 
 def test_cache_files_are_complete_or_absent(tmp_path):
     Runner(tmp_path).run(_stages([]), Cfg(1, 2))
-    names = sorted(p.name for p in tmp_path.iterdir())
+    names = sorted(p.name for p in tmp_path.iterdir() if p.is_file())
     assert len(names) == 2 and all(n.endswith(".pkl") for n in names)  # no temp leftovers
 
 
@@ -74,3 +81,88 @@ def test_a_stage_before_its_inputs_is_an_error(tmp_path):
     first, second = _stages([])
     with pytest.raises(ValueError, match="needs \\['first'\\]"):
         Runner(tmp_path).run((second, first), Cfg(1, 2))
+
+
+def _entry(tmp_path, name):
+    (path,) = tmp_path.glob(f"{name}-*.pkl")
+    return path
+
+
+@pytest.mark.parametrize(
+    "damage",
+    [
+        pytest.param(lambda b: pickle.dumps(999) + b[-45:], id="altered but unpickles"),
+        pytest.param(lambda b: pickle.dumps(999), id="plain pickle, no checksum"),
+        pytest.param(lambda b: b[: len(b) // 2], id="truncated"),
+        pytest.param(lambda b: b"", id="empty"),
+        pytest.param(lambda b: bytes(range(256)) * 3, id="random bytes"),
+    ],
+)
+def test_a_damaged_entry_is_recomputed_with_a_note_never_used(tmp_path, damage):
+    calls = []
+    Runner(tmp_path).run(_stages(calls), Cfg(1, 2))
+    path = _entry(tmp_path, "first")
+    path.write_bytes(damage(path.read_bytes()))
+    calls.clear()
+    runner = Runner(tmp_path)
+    with pytest.warns(HmidWarning, match=r"first-.*\.pkl: cache entry .*recomputing stage 'first'"):
+        out = runner.run(_stages(calls), Cfg(1, 2))
+    assert out == {"first": 10, "second": 12}
+    assert calls == ["first"]  # 'second' keeps its valid entry: same key, same input
+    assert not runner.records["first"].cached
+    assert read_entry(path) == 10  # the entry is whole again
+
+
+def test_the_key_covers_the_stage_wiring_and_the_computing_libraries(tmp_path, monkeypatch):
+    import importlib.util
+    from importlib import metadata
+
+    from hmid.pipeline import runner as module
+
+    base = module.code_fingerprint.__wrapped__()
+    real_version = metadata.version
+    monkeypatch.setattr(
+        metadata, "version", lambda n: "0.0.1" if n == "statsmodels" else real_version(n)
+    )
+    assert module.code_fingerprint.__wrapped__() != base
+    monkeypatch.setattr(metadata, "version", real_version)
+
+    wiring = tmp_path / "pipelines"
+    wiring.mkdir()
+    (wiring / "__init__.py").write_text("")
+    (wiring / "identify.py").write_text("STAGES = ()\n")
+    real_spec = importlib.util.find_spec
+    fake = importlib.machinery.ModuleSpec("pipelines", None, is_package=True)
+    fake.submodule_search_locations = [str(wiring)]
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda n, *a: fake if n == "pipelines" else real_spec(n, *a)
+    )
+    first = module.code_fingerprint.__wrapped__()
+    (wiring / "identify.py").write_text("STAGES = ('load',)\n")
+    assert module.code_fingerprint.__wrapped__() != first
+
+
+def test_a_second_run_waits_for_the_stage_being_computed_and_reuses_it(tmp_path):
+    calls = []
+
+    def slow(config):
+        calls.append("slow")
+        time.sleep(0.5)
+        return config.a
+
+    stages = (Stage("slow", slow, (), lambda c: {"a": c.a}),)
+    results = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        threads = [
+            threading.Thread(target=lambda: results.append(Runner(tmp_path).run(stages, Cfg(4, 0))))
+            for _ in range(2)
+        ]
+        for t in threads:
+            t.start()
+            time.sleep(0.1)
+        for t in threads:
+            t.join()
+    assert results == [{"slow": 4}, {"slow": 4}]
+    assert calls == ["slow"]
+    assert any("another run is computing stage 'slow'" in str(w.message) for w in caught)

@@ -1,21 +1,29 @@
-"""The chain file: emcee's HDF layout plus hmid's checkpoints (random state, counts, checksum).
+"""The chain file: emcee's HDF layout plus hmid's checkpoints (random state, counts, digest).
 
 Each checkpoint is one attribute with a new name, written after the rows it covers, so an
-interrupted write can never pair a random state with the wrong iteration.
+interrupted write can never pair a random state with the wrong iteration. It carries a chained
+SHA-256 over every block of rows written so far (``h_k = sha256(h_{k-1} || sha256(block_k))``):
+resuming verifies the whole stored chain, not only its last row, and a chain that does not match
+is sampled afresh with a one-line note. A file lock is held while a chain is written: a second
+writer waits for the first instead of deleting its file.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Mapping
+import warnings
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import emcee
 import h5py
 import numpy as np
+from filelock import FileLock, Timeout
 
+from hmid.errors import HmidWarning
 from hmid.models.sls._errors import SamplerError
 
 _KEEP_CHECKPOINTS = 2  # the newest checkpoints kept; older ones are deleted
@@ -36,11 +44,14 @@ def _state_from_json(data: Mapping[str, Any]) -> tuple:
     return ("MT19937", keys, data["pos"], data["has_gauss"], data["cached_gaussian"])
 
 
-def _checksum(chain: np.ndarray, logp: np.ndarray) -> str:
-    data = (
-        np.ascontiguousarray(chain, "<f8").tobytes() + np.ascontiguousarray(logp, "<f8").tobytes()
-    )
-    return hashlib.sha256(data).hexdigest()[:16]
+def _chained(previous: str, chain: np.ndarray, logp: np.ndarray) -> str:
+    """The digest after one more block of rows."""
+    block = hashlib.sha256(np.ascontiguousarray(chain, "<f8").tobytes())
+    block.update(np.ascontiguousarray(logp, "<f8").tobytes())
+    return hashlib.sha256(bytes.fromhex(previous) + block.digest()).hexdigest()
+
+
+_ORIGIN = "00" * 32  # the digest of no rows
 
 
 class _Store:
@@ -48,6 +59,27 @@ class _Store:
 
     def __init__(self, path: Path, meta: dict[str, Any], n_walkers: int, dim: int):
         self.path, self.meta, self.shape = path, meta, (n_walkers, dim)
+        self.blocks: list[int] = []  # the rows each written block ends at
+        self.digest = _ORIGIN
+
+    @contextmanager
+    def lock(self) -> Iterator[None]:
+        """Hold ``<file>.lock`` while sampling: a second writer waits (and says so)."""
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        lock = FileLock(f"{self.path}.lock")
+        try:
+            lock.acquire(timeout=0)
+        except Timeout:
+            warnings.warn(
+                f"{self.path}: another run is sampling this chain; waiting for it to finish",
+                HmidWarning,
+                stacklevel=4,
+            )
+            lock.acquire()
+        try:
+            yield
+        finally:
+            lock.release()
 
     def _open(self, mode: str) -> h5py.File:
         try:
@@ -58,9 +90,10 @@ class _Store:
                 f"another backend_path"
             ) from exc
 
-    def prepare(self) -> dict[str, Any] | None:
-        """Refuse a foreign or mismatching file; return its newest valid checkpoint, if any."""
-        if not self.path.exists():
+    def prepare(self, fresh: bool = False) -> dict[str, Any] | None:
+        """Refuse a foreign or mismatching file; return its newest valid checkpoint, if any
+        (none with ``fresh``: the chain is then sampled anew)."""
+        if not self.path.exists() or fresh:
             return None
         with self._open("a") as f:
             foreign = sorted(set(f) - {"mcmc", "hmid"})
@@ -75,6 +108,8 @@ class _Store:
                 )
             if stored is None:
                 return None
+            if stored.get("format") != self.meta["format"]:
+                return None  # written by another hmid version: sampled afresh
             if stored != self.meta:
                 diff = [k for k in self.meta if stored.get(k) != self.meta[k]]
                 raise SamplerError(
@@ -84,29 +119,41 @@ class _Store:
             return self._newest_checkpoint(f)
 
     def _newest_checkpoint(self, f: h5py.File) -> dict[str, Any] | None:
-        """The newest checkpoint that parses and matches the rows it covers; newer ones
-        (half-written when a run was interrupted) are deleted."""
+        """The newest checkpoint that parses and whose digest matches every row it covers;
+        newer ones (half-written when a run was interrupted, or not matching) are deleted."""
         group, chain, logp = f["hmid"], f["mcmc/chain"], f["mcmc/log_prob"]
         for key in sorted((k for k in group.attrs if k.startswith("ckpt_")), reverse=True):
             try:
                 ckpt = json.loads(group.attrs[key])
-                n = ckpt["iteration"]
-                if (
-                    1 <= n <= len(chain)
-                    and ckpt["n_tau"] <= len(group["tau_history"])
-                    and _checksum(chain[n - 1], logp[n - 1]) == ckpt["checksum"]
-                ):
-                    return ckpt
+                n, blocks = ckpt["iteration"], ckpt["blocks"]
+                if 1 <= n <= len(chain) and blocks and blocks[-1] == n:
+                    if self._verify(chain, logp, blocks) == ckpt["digest"]:
+                        self.blocks, self.digest = list(blocks), ckpt["digest"]
+                        return ckpt
+                    warnings.warn(
+                        f"{self.path}: the stored chain does not match its checksum (rows "
+                        f"altered or damaged); not resumed from step {n}",
+                        HmidWarning,
+                        stacklevel=5,
+                    )
             except (KeyError, ValueError, TypeError):
                 pass
             del group.attrs[key]
         return None
 
-    def read(self, ckpt: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, list[list[float]]]:
+    @staticmethod
+    def _verify(chain, logp, blocks: list[int]) -> str:
+        digest, start = _ORIGIN, 0
+        for end in blocks:
+            digest = _chained(digest, chain[start:end], logp[start:end])
+            start = end
+        return digest
+
+    def read(self, ckpt: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+        """The rows the checkpoint covers (verified by :meth:`prepare`)."""
         n = ckpt["iteration"]
         with self._open("r") as f:
-            history = f["hmid/tau_history"][: ckpt["n_tau"]].tolist()
-            return f["mcmc/chain"][:n], f["mcmc/log_prob"][:n], history
+            return f["mcmc/chain"][:n], f["mcmc/log_prob"][:n]
 
     def initialise(self) -> None:
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -120,20 +167,23 @@ class _Store:
             )
             group.attrs["meta"] = json.dumps(self.meta)
         emcee.backends.HDFBackend(str(self.path)).reset(*self.shape)
+        self.blocks, self.digest = [], _ORIGIN
 
-    def save(self, backend, state, saved, n, n_nan, tau, tau_prior, tau_ref, history) -> None:
+    def save(self, backend, state, saved, n, n_nan, history, accepted) -> None:
         """Write rows ``saved:n``, then the checkpoint, then emcee's own bookkeeping."""
         chain, logp = backend.chain[:n], backend.log_prob[:n]
+        if (self.blocks[-1] if self.blocks else 0) != saved:  # a bug, not bad input
+            raise AssertionError(f"{self.path}: rows {saved}:{n} do not follow the saved ones")
+        self.digest = _chained(self.digest, chain[saved:n], logp[saved:n])
+        self.blocks.append(n)
         ckpt = {
             "iteration": n,
-            "checksum": _checksum(chain[n - 1], logp[n - 1]),
+            "blocks": self.blocks,
+            "digest": self.digest,
             "random_state": _state_to_json(state.random_state),
-            "accepted": backend.accepted.tolist(),
+            "accepted": accepted.tolist(),
             "n_nan": n_nan,
             "n_tau": len(history),
-            "tau": None if tau is None else tau.tolist(),
-            "tau_prior": None if tau_prior is None else tau_prior.tolist(),
-            "tau_ref": None if tau_ref is None else tau_ref.tolist(),
         }
         with self._open("a") as f:
             g, group = f["mcmc"], f["hmid"]
@@ -144,7 +194,7 @@ class _Store:
             if history:
                 group["tau_history"][...] = np.asarray(history)
             group.attrs[f"ckpt_{n:012d}"] = json.dumps(ckpt)
-            g["accepted"][...] = backend.accepted
+            g["accepted"][...] = accepted
             g.attrs["iteration"] = n
             for i, value in enumerate(state.random_state):
                 g.attrs[f"random_state_{i}"] = value

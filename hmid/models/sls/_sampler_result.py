@@ -23,6 +23,8 @@ class SamplerResult:
     ``walkers_log_prob`` the whole chain for trace plots. ``tau`` and ``ess`` are per parameter;
     ``tau_history`` rows are ``(iteration, tau_1..tau_D)`` at each convergence check.
     ``wall_s`` is this call's wall time; ``stop_reason`` one of the sampler's ``STOP_REASONS``.
+    ``reused_steps`` counts the steps read from a stored chain (0 when sampled afresh): the
+    numbers are the same either way, the report says which.
     """
 
     names: tuple[str, ...]
@@ -41,6 +43,7 @@ class SamplerResult:
     walkers_log_prob: np.ndarray
     tau_history: np.ndarray
     n_nan: int
+    reused_steps: int = 0
 
     @property
     def n_walkers(self) -> int:
@@ -68,6 +71,7 @@ class SamplerResult:
             "ess_min": float(np.min(self.ess)),
             "wall_s": self.wall_s,
             "n_nan": self.n_nan,
+            "reused_steps": self.reused_steps,
         }
 
     def summary(

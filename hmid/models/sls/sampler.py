@@ -14,23 +14,30 @@ Randomness: ``np.random.SeedSequence(seed)`` spawns one stream for the initial w
 Chain file: the walkers are kept in memory and written every ``check_every`` steps (and on an
 interruption) to ``backend_path``, in emcee's ``HDFBackend`` layout (group ``mcmc``, readable with
 ``emcee.backends.HDFBackend(path, read_only=True)``) plus a group ``hmid`` holding the
-configuration hash and checkpoints. emcee's own ``HDFBackend`` is not used while sampling: it
-opens the file on every step (~5 ms a step here) and rewrites its random state attribute by
-attribute (h5py deletes then recreates each), so an interruption can leave a state that does not
-match the chain. Here a checkpoint (iteration, random state, acceptance counts, autocorrelation
-references, checksum of the last row) is one attribute with a fresh name, written after the rows
-it covers; resuming starts from the newest checkpoint that parses and matches the chain, so
+configuration hash and checkpoints (:mod:`hmid.models.sls._chainfile`: a digest over every stored
+row, verified before resuming; a lock while writing). emcee's own ``HDFBackend`` is not used
+while sampling: it opens the file on every step (~5 ms a step here) and rewrites its random
+state attribute by attribute, so an interruption can leave a state that does not match the chain.
 "N1 steps, interrupt or stop, resume to N2" gives the same chain, bit for bit, as N2 at once.
 
-Convergence (emcee's recommendation): every ``check_every`` steps the integrated autocorrelation
-time tau is estimated on the whole chain; the run stops when ``N > min_tau_factor * max(tau)``
-and every tau changed by less than ``tau_rtol`` since the previous check. Burn-in is then
+Convergence (emcee's recommendation), checked at fixed steps (every ``check_every`` and at
+``max_steps``): tau, the integrated autocorrelation time, is estimated on the whole chain; the run
+stops when ``N > min_tau_factor * max(tau)`` and every tau changed by less than ``tau_rtol`` since
+the previous check. The rule reads only the chain, and a stored chain is replayed through it
+(:mod:`hmid.models.sls._convergence`), so a file left by a run with a larger budget or other
+settings gives the numbers a fresh run gives (``SamplerResult.reused_steps`` says what was read
+back). Only ``max_seconds``, a wall-clock guard, can stop a run off these steps. Burn-in is then
 ``2 * max(tau)`` steps and thinning ``max(1, min(tau) / 2)``; the effective sample size of each
 parameter is ``n_walkers * (N - burn_in) / tau``.
+
+Ctrl-C while sampling saves the steps done and raises :class:`SamplingInterrupted` (one line:
+the step and the file); an error inside ``log_prob`` is raised after the step it hit is dropped,
+without emcee's parameter dump.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -44,7 +51,9 @@ from tqdm.auto import tqdm
 
 from hmid.errors import ConfigError
 from hmid.models.sls._chainfile import _state_from_json, _Store
-from hmid.models.sls._errors import SamplerError
+from hmid.models.sls._convergence import acceptance, converged, replay, tau_of
+from hmid.models.sls._errors import SamplerError, SamplingInterrupted
+from hmid.models.sls._logprob import LogProb
 from hmid.models.sls._moves import SnookerMove
 from hmid.models.sls._sampler_result import SamplerResult
 
@@ -53,13 +62,14 @@ __all__ = [
     "SamplerConfig",
     "SamplerError",
     "SamplerResult",
+    "SamplingInterrupted",
     "SnookerMove",
     "run_sampler",
 ]
 
 STOP_REASONS = ("converged", "step budget", "time budget")
 BALL_REDRAWS = 3  # non-finite walkers of the initial ball are re-drawn this often before failing
-_FORMAT = 1
+_FORMAT = 2  # 2: a digest over every stored row
 
 
 @dataclass(frozen=True)
@@ -129,14 +139,16 @@ def run_sampler(
     names: Sequence[str],
     fingerprint: str = "",
     ball_scale: np.ndarray | None = None,
+    fresh: bool = False,
 ) -> SamplerResult:
     """Sample ``log_prob`` from a ball around ``theta0`` until converged or out of budget.
 
     With ``backend_path`` the chain is saved as it runs; a file holding a chain of the same
     configuration (``config``'s chain-defining fields, ``theta0``, ``names`` and
     ``fingerprint``, e.g. a hash of the data and model settings) is resumed, anything else is
-    refused with :class:`SamplerError`. On resume ``log_prob`` is re-evaluated at the last
-    walkers and must reproduce the stored values (else the target changed: an error).
+    refused with :class:`SamplerError`; ``fresh`` starts it anew. On resume ``log_prob`` is
+    re-evaluated at the last walkers and must reproduce the stored values (else the target
+    changed: an error).
 
     ``ball_scale`` (D,), if given, is the walker ball's standard deviation per coordinate (e.g.
     the start fit's standard errors) instead of ``config.init_scale * |theta0|``.
@@ -160,7 +172,7 @@ def run_sampler(
         radius = np.asarray(ball_scale, dtype=float)
         if radius.shape != theta0.shape or not np.all(np.isfinite(radius) & (radius > 0)):
             raise ConfigError(f"sampler: ball_scale must be {dim} positive numbers: {radius}")
-    target = _LogProb(log_prob, theta0, n_walkers // 2)
+    target = LogProb(log_prob, theta0, n_walkers // 2)
     meta = {
         "format": _FORMAT,
         "n_walkers": n_walkers,
@@ -172,10 +184,18 @@ def run_sampler(
         "fingerprint": fingerprint,
     }
     store = None if backend_path is None else _Store(Path(backend_path), meta, n_walkers, dim)
-    checkpoint = None if store is None else store.prepare()
+    with contextlib.ExitStack() as stack:
+        if store is not None:
+            stack.enter_context(store.lock())
+        return _sample(target, theta0, radius, names, cfg, store, fresh)
 
+
+def _sample(target, theta0, radius, names, cfg, store, fresh) -> SamplerResult:
+    n_walkers, dim = cfg.n_walkers, theta0.size
+    checkpoint = None if store is None else store.prepare(fresh=fresh)
     backend = emcee.backends.Backend()
     backend.reset(n_walkers, dim)
+    reused, replayed = 0, None
     if checkpoint is None:
         ball_seed, move_seed = np.random.SeedSequence(cfg.seed).spawn(2)
         ball_rng = np.random.default_rng(ball_seed)
@@ -186,14 +206,18 @@ def run_sampler(
         if store is not None:
             store.initialise()
     else:
-        backend.chain, backend.log_prob, history = store.read(checkpoint)
-        backend.iteration = checkpoint["iteration"]
-        backend.accepted = np.asarray(checkpoint["accepted"], dtype=float)
+        stored, stored_logp = store.read(checkpoint)
+        reused = len(stored)
+        _check_same_target(target, stored[-1], stored_logp[-1], store.path)
+        replayed = replay(stored, cfg)  # what a fresh run stops with, whatever the file holds
+        backend.chain, backend.log_prob = stored[: replayed.n], stored_logp[: replayed.n]
+        backend.iteration = replayed.n
+        if replayed.reason is None:  # sampling goes on: emcee's counts go on from the file's
+            backend.accepted = np.asarray(checkpoint["accepted"], dtype=float)
         coords, logp = backend.chain[-1], backend.log_prob[-1]
         random_state = _state_from_json(checkpoint["random_state"])
-        _check_same_target(target, coords, logp, store.path)
         target.n_nan = checkpoint["n_nan"]
-        tau, tau_ref = _array(checkpoint["tau"]), _array(checkpoint["tau_ref"])
+        history, tau, tau_ref = replayed.history, replayed.tau, replayed.tau_ref
     backend.random_state = random_state
     sampler = emcee.EnsembleSampler(
         n_walkers, dim, target, moves=cfg.emcee_moves(), backend=backend, vectorize=True
@@ -205,9 +229,7 @@ def run_sampler(
 
     start = time.perf_counter()
     it = backend.iteration
-    stop = None
-    if checkpoint is not None and _converged(tau, _array(checkpoint["tau_prior"]), it, cfg):
-        stop = "converged"  # nothing to add (under this call's convergence settings)
+    stop = None if replayed is None else replayed.reason
     bar = tqdm(
         total=cfg.max_steps,
         initial=min(it, cfg.max_steps),
@@ -223,64 +245,49 @@ def run_sampler(
             if time.perf_counter() - start >= cfg.max_seconds:
                 stop = "time budget"
                 break
-            saved, n_nan = it, target.n_nan
+            saved, n_nan, accepted = it, target.n_nan, backend.accepted.copy()
             end = min(cfg.max_steps, (it // cfg.check_every + 1) * cfg.check_every)
             steps = sampler.sample(state, iterations=end - it, skip_initial_state_check=True)
             try:
                 for new_state in steps:
-                    state, it, n_nan = new_state, it + 1, target.n_nan
+                    target.reraise()  # a step that saw an error or Ctrl-C is not kept
+                    # emcee updates its state in place: keep a copy of the last whole step
+                    state = emcee.State(new_state, copy=True)
+                    it, n_nan, accepted = it + 1, target.n_nan, backend.accepted.copy()
                     bar.update(1)
                     if time.perf_counter() - start >= cfg.max_seconds:
                         break
-            except BaseException:  # keep the steps done; the last yielded state is consistent
+                target.reraise()
+            except BaseException as err:  # keep the steps done; the last kept state is consistent
                 if store is not None and it > saved:
-                    store.save(backend, state, saved, it, n_nan, None, tau_ref, tau_ref, history)
+                    store.save(backend, state, saved, it, n_nan, history, accepted)
+                if isinstance(err, KeyboardInterrupt):
+                    raise SamplingInterrupted(it, None if store is None else store.path) from None
                 raise
-            tau_prior, tau = tau_ref, _tau(backend.get_chain())
+            if it not in (end, cfg.max_steps):  # stopped by the time budget between checks
+                if store is not None:
+                    store.save(backend, state, saved, it, n_nan, history, accepted)
+                continue
+            tau_prior, tau = tau_ref, tau_of(backend.get_chain())
             if it % cfg.check_every == 0:
                 tau_ref = tau
             history.append([it, *tau])
             bar.set_postfix(tau_max=f"{tau.max():.1f}")
             if store is not None:
-                store.save(
-                    backend, state, saved, it, target.n_nan, tau, tau_prior, tau_ref, history
-                )
-            if _converged(tau, tau_prior, it, cfg):
+                store.save(backend, state, saved, it, target.n_nan, history, accepted)
+            if converged(tau, tau_prior, it, cfg):
                 stop = "converged"
     return _result(
-        backend, tau, history, names, stop, time.perf_counter() - start, store, target.n_nan
+        backend,
+        tau,
+        history,
+        names,
+        stop,
+        time.perf_counter() - start,
+        store,
+        target.n_nan,
+        min(reused, backend.iteration),
     )
-
-
-class _LogProb:
-    """The user's log-probability with its output checked; NaN -> -inf (counted)."""
-
-    def __init__(self, fn: Callable[[np.ndarray], np.ndarray], pad: np.ndarray, batch: int):
-        self.fn, self.pad, self.batch, self.n_nan = fn, pad, batch, 0
-
-    def padded(self, theta: np.ndarray) -> np.ndarray:
-        """Evaluate any number of rows in batches of ``batch`` (padding with ``pad``)."""
-        n = len(theta)
-        rows = -(-n // self.batch) * self.batch
-        full = np.concatenate([theta, np.broadcast_to(self.pad, (rows - n, theta.shape[1]))])
-        return np.concatenate([self(full[i : i + self.batch]) for i in range(0, rows, self.batch)])[
-            :n
-        ]
-
-    def __call__(self, theta: np.ndarray) -> np.ndarray:
-        theta = np.asarray(theta, dtype=float)
-        out = np.asarray(self.fn(theta), dtype=float)
-        if out.shape != (len(theta),):
-            raise SamplerError(
-                f"sampler: log_prob must return shape ({len(theta)},) for theta of shape "
-                f"{theta.shape}, got {out.shape}"
-            )
-        if np.any(np.isposinf(out)):
-            bad = theta[np.argmax(np.isposinf(out))]
-            raise SamplerError(f"sampler: log_prob returned +inf at theta = {bad.tolist()}")
-        nan = np.isnan(out)
-        self.n_nan += int(nan.sum())
-        return np.where(nan, -np.inf, out)
 
 
 def _initial_ball(target, theta0, radius, n_walkers, rng, names):
@@ -326,33 +333,17 @@ def _check_same_target(target, coords, logp, path):
         )
 
 
-def _tau(chain: np.ndarray) -> np.ndarray:
-    """Integrated autocorrelation time per parameter; ``N`` where it cannot be estimated."""
-    n = len(chain)
-    if n < 2:
-        return np.full(chain.shape[-1], float(max(n, 1)))
-    with np.errstate(all="ignore"):
-        tau = emcee.autocorr.integrated_time(chain, tol=0)
-    return np.where(np.isfinite(tau) & (tau > 0), tau, float(n))
-
-
-def _converged(tau, tau_prior, n, cfg) -> bool:
-    if tau is None or tau_prior is None or n <= cfg.min_tau_factor * np.max(tau):
-        return False
-    return bool(np.all(np.abs(tau_prior - tau) / tau < cfg.tau_rtol))
-
-
-def _result(backend, tau, history, names, stop, wall, store, n_nan) -> SamplerResult:
+def _result(backend, tau, history, names, stop, wall, store, n_nan, reused) -> SamplerResult:
     chain, logp = backend.get_chain(), backend.get_log_prob()
     n, n_walkers, dim = chain.shape
-    tau = _tau(chain) if tau is None else tau
+    tau = tau_of(chain) if tau is None else tau
     burn = min(int(2 * np.max(tau)), n // 2)
     thin = max(1, int(0.5 * np.min(tau)))
     return SamplerResult(
         names=names,
         chain=chain[burn::thin].reshape(-1, dim),
         log_prob=logp[burn::thin].reshape(-1),
-        acceptance=backend.accepted / n,
+        acceptance=acceptance(chain),
         tau=tau,
         ess=n_walkers * (n - burn) / tau,
         n_steps=n,
@@ -365,6 +356,7 @@ def _result(backend, tau, history, names, stop, wall, store, n_nan) -> SamplerRe
         walkers_log_prob=logp,
         tau_history=np.asarray(history, dtype=float).reshape(-1, dim + 1),
         n_nan=n_nan,
+        reused_steps=reused,
     )
 
 
