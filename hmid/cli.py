@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import sys
 import warnings
 from pathlib import Path
@@ -20,6 +21,9 @@ commands:
   summary     load, validate, denoise and summarise the logs named by an experiment config
   sweep       run one experiment over many logs or settings (process pool or Dask cluster)
               and compare the runs in one table
+  blind       test the loop blind on simulated logs with undeclared effects
+  runs        list run folders with their status (complete, failed, running, stale); remove
+              the failed ones on request
 """
 
 
@@ -145,6 +149,23 @@ def _blind(args: argparse.Namespace) -> int:
     return 0 if targets["met"].all() else 1
 
 
+def _runs(args: argparse.Namespace) -> int:
+    from hmid.runs import list_runs, remove_runs
+
+    entries = list_runs(Path(args.root))
+    if args.failed or args.remove_failed:
+        entries = [e for e in entries if e.status in ("failed", "stale", "no manifest")]
+    for entry in entries:
+        error = f"  {entry.error}" if entry.error else ""
+        print(f"{entry.status:<12} {entry.started or '-':<25} {entry.path}{error}")
+    if args.remove_failed:
+        removed = remove_runs(entries)
+        print(f"removed {len(removed)} failed or stale run folder(s) under {args.root}")
+    elif not entries:
+        print(f"no {'failed ' if args.failed else ''}run folders under {args.root}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="hmid", description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -234,6 +255,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_blind)
 
+    p = sub.add_parser(
+        "runs",
+        help="list run folders and their status; remove failed ones",
+        description="List every run folder under a results root (or one experiment's or "
+        "sweep's folder) with its manifest's status: complete, failed (with its one-line "
+        "error), running, stale (still 'running' but its process is gone: killed) or no "
+        "manifest. --remove-failed deletes the failed, stale and manifest-less folders; "
+        "complete runs are never touched.",
+    )
+    p.add_argument("root", nargs="?", default="results", help="results folder (default: results)")
+    p.add_argument("--failed", action="store_true", help="list only failed or stale runs")
+    p.add_argument(
+        "--remove-failed", action="store_true", help="delete failed and stale run folders"
+    )
+    p.set_defaults(func=_runs)
+
     return parser
 
 
@@ -249,6 +286,37 @@ def main(argv: list[str] | None = None) -> int:
     except HmidError as err:
         print(f"hmid {args.command}: error: {err}", file=sys.stderr)
         return 2
+    except OSError as err:  # the machine, not the input: a path, permissions, a full disk
+        print(f"hmid {args.command}: error: {environment_message(err, args)}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(
+            f"hmid {args.command}: interrupted (Ctrl-C); a run folder it made is marked failed "
+            "(hmid runs --failed lists them), cached stages are kept",
+            file=sys.stderr,
+        )
+        return 130
+
+
+def environment_message(err: OSError, args: argparse.Namespace) -> str:
+    """One line for an OS failure: the path, what happened, and the fix."""
+    path = err.filename or getattr(args, "results", None) or "?"
+    what = err.strerror or type(err).__name__
+    results = getattr(args, "results", "results")
+    fixes = {
+        errno.EACCES: f"make it writable or choose another folder with --results (now {results})",
+        errno.EPERM: f"make it writable or choose another folder with --results (now {results})",
+        errno.EROFS: "the file system is read-only: choose another folder with --results",
+        errno.ENOSPC: f"free disk space (stage caches live in {results}/<experiment>/.cache and "
+        "may be deleted) and run the same command again",
+        errno.EDQUOT: "free disk space or raise the quota, then run the same command again",
+        errno.ENOTDIR: "a part of this path is a file: --results must name a folder",
+        errno.EEXIST: "a file is in the way: --results must name a folder",
+        errno.EISDIR: "this is a folder where a file is expected: give the file's path",
+        errno.ENOENT: "the path does not exist: check it",
+    }
+    fix = fixes.get(err.errno, "check the path and the machine's state, then run again")
+    return f"{path}: {what.lower()}; {fix}"
 
 
 if __name__ == "__main__":

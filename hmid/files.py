@@ -23,12 +23,19 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path next to ``path``; on success it replaces ``path`` atomically."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as err:  # name the file meant, not a random temporary name
+        raise OSError(err.errno, err.strerror, str(path)) from err
     os.close(fd)
     try:
         yield Path(tmp)
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual permissions
         os.replace(tmp, path)
+    except OSError as err:
+        if err.filename not in (None, tmp):
+            raise
+        raise OSError(err.errno, err.strerror, str(path)) from err  # e.g. a full disk
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)

@@ -12,7 +12,11 @@ from __future__ import annotations
 import datetime as _dt
 import hashlib
 import json
+import os
 import platform
+import re
+import shutil
+import socket
 import subprocess
 import time
 from collections.abc import Iterator
@@ -21,7 +25,10 @@ from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 
+from hmid.errors import HmidError
 from hmid.files import sha256, write_json
+
+_RUN_ID = re.compile(r"^\d{8}T\d{6}Z-[0-9a-f]{8}(-\d+)?$")
 
 PACKAGES = ("hmid", "numpy", "scipy", "pandas", "jax", "pysindy", "emcee", "statsmodels", "pint",
             "pydantic", "matplotlib")  # fmt: skip
@@ -107,6 +114,7 @@ class Manifest:
                 "status": self.status,
                 "error": self.error,
                 "started": self.started,
+                "process": {"host": socket.gethostname(), "pid": os.getpid()},
                 "finished": None if self.status == "running" else _now(),
                 "stage_wall_s": {k: round(v, 4) for k, v in self.stages.items()},
                 "stage_cached": self.cache,
@@ -168,8 +176,67 @@ def open_run(
         yield RunFolder(path, manifest, Path(config_path))
     except BaseException as err:
         manifest.status = "failed"
-        manifest.error = " ".join(str(err).split()) or type(err).__name__
+        said = " ".join(str(err).split())
+        interrupted = isinstance(err, KeyboardInterrupt)
+        manifest.error = said or ("interrupted (Ctrl-C)" if interrupted else type(err).__name__)
         manifest.write()
         raise
     manifest.status = "complete"
     manifest.write()
+
+
+@dataclass(frozen=True)
+class RunEntry:
+    """One run folder as ``hmid runs`` lists it."""
+
+    path: Path
+    status: str  # complete | failed | running | stale (its process is gone) | no manifest
+    started: str | None
+    error: str | None
+
+
+def _status(manifest: dict) -> str:
+    status = manifest.get("status") or "no status"
+    process = manifest.get("process") or {}
+    if status == "running" and process.get("host") == socket.gethostname():
+        try:
+            os.kill(int(process["pid"]), 0)
+        except ProcessLookupError:
+            return "stale"  # killed without a word (SIGKILL, power): it will never finish
+        except (OSError, KeyError, TypeError, ValueError):
+            pass
+    return status
+
+
+def list_runs(root: Path) -> list[RunEntry]:
+    """Every run folder under ``root`` (a results root, an experiment's or a sweep's folder),
+    oldest first."""
+    root = Path(root)
+    if not root.is_dir():
+        raise HmidError(f"{root}: not a folder of results; give the --results root or a subfolder")
+    folders = {p.parent for p in root.rglob("manifest.json")}
+    folders |= {d for d in root.rglob("*") if _RUN_ID.match(d.name) and d.is_dir()}
+    entries = []
+    for folder in folders:
+        if ".cache" in folder.relative_to(root).parts:
+            continue
+        manifest_path = folder / "manifest.json"
+        if not manifest_path.is_file():
+            entries.append(RunEntry(folder, "no manifest", None, None))
+            continue
+        try:
+            manifest = json.loads(manifest_path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            entries.append(RunEntry(folder, "unreadable manifest", None, None))
+            continue
+        entries.append(
+            RunEntry(folder, _status(manifest), manifest.get("started"), manifest.get("error"))
+        )
+    return sorted(entries, key=lambda e: (e.started or "", str(e.path)))
+
+
+def remove_runs(entries: list[RunEntry]) -> list[Path]:
+    """Delete the folders of ``entries`` (the caller picks failed or stale ones)."""
+    for entry in entries:
+        shutil.rmtree(entry.path)
+    return [entry.path for entry in entries]

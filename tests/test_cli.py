@@ -1,5 +1,6 @@
 """The command line: help, simulate, relaxation, summary; bad input is one line and exit code 2."""
 
+import errno
 import json
 import shutil
 from pathlib import Path
@@ -126,3 +127,81 @@ def test_run_prints_the_best_model_and_the_loop_with_model_names(tmp_path, capsy
     )
     assert lines[1].startswith("loop on balance: ") and "balance" in lines[1].split("RMSE")[1]
     assert lines[-1].startswith("report: ") and lines[-1].endswith("report.html")
+
+
+def _demo_copy(tmp_path):
+    """The demo config pointing at the repository's demo data, from a temporary folder."""
+    text = (ROOT / "configs/demo.yaml").read_text().replace("../data/", f"{ROOT}/data/")
+    config = tmp_path / "demo.yaml"
+    config.write_text(text)
+    return config
+
+
+def _one_line(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+def test_results_that_is_a_file_is_one_line_and_exit_2(tmp_path, capsys):
+    blocker = tmp_path / "results"
+    blocker.write_text("not a folder")
+    assert main(["summary", str(_demo_copy(tmp_path)), "--results", str(blocker)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert str(blocker) in line and "--results must name a folder" in line
+
+
+def test_a_results_root_that_is_not_writable_is_one_line(tmp_path, capsys, monkeypatch):
+    import hmid.runs
+
+    def refuse(results, *a):  # root runs the tests, so chmod cannot deny it: refuse instead
+        raise PermissionError(errno.EACCES, "Permission denied", str(results))
+
+    monkeypatch.setattr(hmid.runs, "new_run_dir", refuse)
+    root = tmp_path / "locked"
+    assert main(["summary", str(_demo_copy(tmp_path)), "--results", str(root)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert line.startswith(f"hmid summary: error: {root}: permission denied; make it writable")
+
+
+@pytest.mark.parametrize(
+    ("error", "fix"),
+    [
+        (PermissionError(errno.EACCES, "Permission denied"), "make it writable"),
+        (OSError(errno.ENOSPC, "No space left on device"), "free disk space"),
+    ],
+    ids=["cache not writable", "disk full"],
+)
+def test_a_cache_that_cannot_be_written_is_one_line_and_the_run_is_marked_failed(
+    tmp_path, capsys, monkeypatch, error, fix
+):
+    import hmid.pipeline.cache
+
+    def fail(*args, **kwargs):
+        raise error
+
+    monkeypatch.setattr(hmid.pipeline.cache.pickle, "dump", fail)
+    results = tmp_path / "results"
+    assert main(["run", str(_demo_copy(tmp_path)), "--results", str(results)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert "/.cache/load-" in line and fix in line
+    (manifest,) = results.glob("demo/*/manifest.json")
+    record = json.loads(manifest.read_text())
+    assert record["status"] == "failed" and record["error"]
+
+
+def test_ctrl_c_is_one_line_and_the_run_is_marked_failed(tmp_path, capsys, monkeypatch):
+    import hmid.pipeline.runner
+
+    def interrupt(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(hmid.pipeline.runner, "write_entry", interrupt)
+    results = tmp_path / "results"
+    assert main(["run", str(_demo_copy(tmp_path)), "--results", str(results)]) == 130
+    assert "interrupted (Ctrl-C)" in _one_line(capsys.readouterr().err)
+    (manifest,) = results.glob("demo/*/manifest.json")
+    record = json.loads(manifest.read_text())
+    assert record["status"] == "failed" and record["error"] == "interrupted (Ctrl-C)"
+    assert main(["runs", str(results), "--failed"]) == 0
+    assert "failed" in capsys.readouterr().out
