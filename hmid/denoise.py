@@ -35,13 +35,13 @@ def denoise_log(
     t = log.t
     names = log.channels if channels is None else tuple(channels)
     out, units = {}, {}
-    step = "smoothing"
+    step, section, kind = "smoothing", "denoise.smoother", smoother.kind
     try:
         for c in names:
             if c in log:
                 out[f"{c}_s"], units[f"{c}_s"] = smoother(t, log[c]), log.units[c]
         if position is not None and position in log:
-            step = "differentiating"
+            step, section, kind = "differentiating", "denoise.derivative", differentiator.kind
             v, a = estimate_motion(t, log[position], differentiator)
             unit = log.units[position]
             smoothed = differentiator.includes(smoother)
@@ -49,11 +49,8 @@ def denoise_log(
             out |= {"v": v, "a_est": a, "v_s": v_s, "a_s": a_s}
             units |= {"v": f"{unit}/s", "a_est": f"{unit}/s^2", "v_s": f"{unit}/s",
                       "a_s": f"{unit}/s^2"}  # fmt: skip
-    except SignalError as err:
-        raise LogError(
-            f"{log.source}: {step} failed: {err}; use a longer log or shorter windows "
-            "in the config's denoise section"
-        ) from None
+    except SignalError as err:  # it says its own fix (a longer or a shorter window, ...)
+        raise LogError(f"{log.source}: {step} failed: {err} ({section}, kind {kind!r})") from None
     return log.with_channels(units=units, **out)
 
 

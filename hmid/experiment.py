@@ -225,6 +225,11 @@ def experiment_from(data: Mapping[str, Any], source: str, base_dir: Path) -> Exp
     for i, entry in enumerate(config.logs):
         for key in ("path", "columns"):
             target = config.resolve(getattr(entry, key))
+            if target.is_dir():
+                raise ConfigError(
+                    f"{source}: key 'logs.{i}.{key}': {target} is a folder, not a file; give the "
+                    f"path of one {'log' if key == 'path' else 'column map'} file in it"
+                )
             if not target.is_file():
                 raise ConfigError(
                     f"{source}: key 'logs.{i}.{key}': file {target} does not exist "

@@ -98,6 +98,10 @@ def test_missing_log_file_names_the_key(tmp_path, capsys):
     )
     assert main(["summary", str(experiment), "--results", str(tmp_path / "r")]) == 2
     assert "key 'logs.0.path': file" in capsys.readouterr().err
+    (tmp_path / "nope.csv").mkdir()
+    assert main(["summary", str(experiment), "--results", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err
+    assert "key 'logs.0.path': " in err and "nope.csv is a folder, not a file" in err
 
 
 def test_blind_prints_the_pass_marks_and_exits_by_them(tmp_path, capsys):

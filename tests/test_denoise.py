@@ -35,3 +35,56 @@ def test_log_shorter_than_the_windows_names_the_file():
     with pytest.raises(LogError, match=r"^data/short\.csv: differentiating failed: .*51") as err:
         denoise_log(log, SMOOTHER, DIFF)
     assert "\n" not in str(err.value)
+
+
+# -- advice that matches the cause (issue 13, item 8f and 8g) -----------------------------------
+def kilohertz_log(n: int = 200, jitter: float = 0.0) -> Log:
+    rng = np.random.default_rng(3)
+    t = np.cumsum(1e-3 * (1 + jitter * rng.uniform(-1, 1, n)))
+    return Log(pd.DataFrame({"t": t, "x": np.sin(t)}), source="data/k.csv")
+
+
+@pytest.mark.parametrize(
+    ("smoother", "diff", "expected"),
+    [
+        (  # a 3 ms cubic Savitzky-Golay window at 1 kHz is 3 samples: too SHORT
+            SMOOTHER,
+            SavitzkyGolay(Window(seconds=0.003), polyorder=3),
+            "data/k.csv: differentiating failed: polyorder 3 needs a window of more than 3 "
+            "samples, got 3; lengthen the window or lower polyorder "
+            "(denoise.derivative, kind 'savitzky_golay')",
+        ),
+        (  # a 0.4 ms moving average at 1 kHz is less than one sample: too SHORT
+            MovingAverage(Window(seconds=0.0004)),
+            DIFF,
+            "data/k.csv: smoothing failed: a window of 0.0004 s is shorter than half a time "
+            "step (0.001 s); lengthen the window to at least one time step "
+            "(denoise.smoother, kind 'moving_average')",
+        ),
+    ],
+)
+def test_a_window_too_short_is_told_to_be_longer(smoother, diff, expected):
+    with pytest.raises(LogError) as err:
+        denoise_log(kilohertz_log(), smoother, diff)
+    assert str(err.value) == expected
+
+
+def test_a_window_too_long_is_told_to_be_shorter():
+    with pytest.raises(LogError) as err:
+        denoise_log(kilohertz_log(20), SMOOTHER, DIFF)
+    assert str(err.value) == (
+        "data/k.csv: differentiating failed: a Savitzky-Golay window of 51 samples needs 51 "
+        "samples but the signal has only 20; shorten the window or use a longer log "
+        "(denoise.derivative, kind 'savitzky_golay')"
+    )
+
+
+def test_messages_name_the_config_kind_not_the_class():
+    with pytest.raises(LogError) as err:
+        denoise_log(kilohertz_log(jitter=0.2), SMOOTHER, DIFF)
+    message = str(err.value)
+    assert "SmoothedFiniteDifference" not in message and "SavitzkyGolay" not in message
+    assert message.endswith(
+        "resample the log or use derivative kind 'smoothed_difference' "
+        "(denoise.derivative, kind 'savitzky_golay')"
+    )

@@ -6,6 +6,7 @@ impossible values are errors at load time that name the file and the key.
 
 from __future__ import annotations
 
+import codecs
 import math
 from pathlib import Path
 from typing import Literal
@@ -75,10 +76,14 @@ class ColumnMap(BaseModel):
     delimiter: str | None = None  # one character or 'whitespace'; None = sniff from the file
     header: bool = True  # first (non-skipped) line holds column names
     comment: str | None = None  # lines starting with this character are ignored
+    decimal: str = "."  # decimal mark: ',' for decimal-comma exports ("1,25;3,5")
+    encoding: str = "utf-8"  # text encoding, e.g. latin-1 or cp1252 for old Windows exports
     skip_rows: int = Field(default=0, ge=0)  # lines to skip before the header / first data row
     max_gap_factor: float = Field(default=10.0, gt=1.0)  # worst dt allowed, in median dts
     min_samples: int = Field(default=2, ge=2)
     saturation: Literal["flag", "error"] = "flag"  # what samples at the sensor rails cause
+    # the rig's plausible median sampling rate: outside it, the time unit is likely wrong
+    sample_rate_hz: tuple[float, float] = (1.0, 100_000.0)
 
     @field_validator("delimiter")
     @classmethod
@@ -94,6 +99,35 @@ class ColumnMap(BaseModel):
     def _comment_character(cls, value: str | None) -> str | None:
         if value is not None and (len(value) != 1 or value in '"\r\n'):
             raise ValueError("comment must be one character, e.g. '#'")
+        return value
+
+    @field_validator("decimal")
+    @classmethod
+    def _decimal_character(cls, value: str) -> str:
+        if len(value) != 1 or value in '"\r\n' or value.isalnum() or value.isspace():
+            raise ValueError("decimal must be one character, '.' or ','")
+        return value
+
+    @field_validator("encoding")
+    @classmethod
+    def _ascii_compatible(cls, value: str) -> str:
+        try:
+            name = codecs.lookup(value).name
+        except LookupError:
+            raise ValueError(f"unknown encoding {value!r}; e.g. utf-8, latin-1, cp1252") from None
+        # delimiters, digits and line ends are found byte-wise (sniffing, NUL check, line numbers)
+        probe = "\t,;|#.+-eE0123456789\r\n"
+        if name != "utf-8-sig" and probe.encode(value, errors="replace") != probe.encode("ascii"):
+            raise ValueError(
+                f"encoding {value!r} is not ASCII-compatible; re-save the file as UTF-8"
+            )
+        return value
+
+    @field_validator("sample_rate_hz")
+    @classmethod
+    def _rate_range(cls, value: tuple[float, float]) -> tuple[float, float]:
+        if not (0 < value[0] < value[1] < math.inf):
+            raise ValueError("sample_rate_hz must be [low, high] in Hz with 0 < low < high")
         return value
 
     @field_validator("channels")
@@ -116,6 +150,9 @@ class ColumnMap(BaseModel):
                 )
         if self.comment is not None and self.comment == self.delimiter:
             raise ValueError("comment and delimiter must differ")
+        if self.decimal in (self.delimiter, self.comment):
+            what = "delimiter" if self.decimal == self.delimiter else "comment"
+            raise ValueError(f"decimal and {what} must differ")
         return self
 
     @property
@@ -129,8 +166,12 @@ def load_column_map(path: str | Path) -> ColumnMap:
 
     Units are checked here too, so a wrong unit is reported at load time with its key.
     """
-    columns = load_yaml_model(path, ColumnMap, "column map", " with a 'channels' key")
     source = str(path)
+    if Path(path).is_dir():
+        raise ConfigError(
+            f"{source}: is a folder, not a column map; give the path of its YAML file"
+        )
+    columns = load_yaml_model(path, ColumnMap, "column map", " with a 'channels' key")
     for name, spec in columns.channels.items():
         try:
             si_unit(spec.unit, name)

@@ -8,6 +8,7 @@ fills data: a check either passes the values through or stops.
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -17,6 +18,7 @@ import pandas as pd
 
 from hmid.errors import HmidWarning, LogError
 from hmid.io.columns import ChannelSpec
+from hmid.io.units import to_si
 
 #: Turns a 0-based data row into its description, e.g. ``"row 153 (line 154)"``.
 RowLocator = Callable[[int], str]
@@ -91,11 +93,20 @@ def numeric(series: pd.Series, column: str | int, channel: str, where: Place) ->
             values = np.asarray([np.nan if pd.isna(c) else float(c) for c in cells], "float64")
     if len(bad):
         row = int(bad[0])
+        if isinstance(cells[row], str) and _DECIMAL_COMMA.match(cells[row]):
+            raise LogError(
+                f"{where.at(column, channel, row)}value {_short(cells[row])} has a decimal comma "
+                f'({len(bad)} such cell(s) in this column); set decimal: "," in the column map'
+            )
         raise LogError(
             f"{where.at(column, channel, row)}non-numeric value {_short(cells[row])} "
             f"({len(bad)} such cell(s) in this column); fix the cell or the delimiter"
         )
     return values
+
+
+# '1,25', '-0,5e-3', '1.234,5': a number written with a decimal comma
+_DECIMAL_COMMA = re.compile(r"^\s*[+-]?(\d{1,3}(\.\d{3})*|\d+)?,\d+([eE][+-]?\d+)?\s*$")
 
 
 def _is_number(cell: object) -> bool:
@@ -169,6 +180,54 @@ def check_time(t: np.ndarray, column: str | int, max_gap_factor: float, where: P
         f"{GAP_FLAG_FACTOR:g} x the median step {median:.4g} s, worst {dt[worst]:.4g} s "
         f"({ratio:.1f} x) before this row; filters and derivatives bridge them"
     )
+
+
+#: Time units a time column is likely to be in; the wrong one is looked for among them.
+_TIME_UNITS = ("s", "ms", "us", "ns")
+
+
+def check_rate(
+    t: np.ndarray, spec: ChannelSpec, plausible: tuple[float, float], where: Place
+) -> None:
+    """LogError if the median sampling rate of ``t`` (s) is outside ``plausible`` (Hz).
+
+    A rate far outside the rig's range almost always means a wrong time unit (seconds mapped as
+    'ms' read a 1 kHz log as 1 MHz); the message names the unit that gives a plausible rate.
+    """
+    if len(t) < 2:
+        return
+    low, high = plausible
+    rate = 1.0 / float(np.median(np.diff(t)))
+    if low <= rate <= high:
+        return
+    found = (
+        f"{where.at(spec.column, 't')}median sampling rate {rate:.4g} Hz ({len(t)} samples in "
+        f"{t[-1] - t[0]:.4g} s) is outside the plausible {low:g} to {high:g} Hz"
+    )
+    unit = _plausible_unit(rate, spec.unit, plausible)
+    if unit is None:
+        raise LogError(
+            f"{found}; check channels.t.unit and scale in the column map, or set sample_rate_hz: "
+            f"[low, high] there if the rig really samples at {rate:.4g} Hz"
+        )
+    raise LogError(
+        f"{found}; time looks like {unit} mapped as {spec.unit!r}: set channels.t.unit: {unit} in "
+        f"the column map (or sample_rate_hz: [low, high] there if the rig really samples at "
+        f"{rate:.4g} Hz)"
+    )
+
+
+def _plausible_unit(rate: float, unit: str, plausible: tuple[float, float]) -> str | None:
+    """The time unit that would put ``rate`` (read in ``unit``) nearest the middle (in decades)
+    of the plausible range, or None if none puts it inside."""
+    seconds = {u: float(to_si(np.ones(1), u, "t", "")[0][0]) for u in (*_TIME_UNITS, unit)}
+    middle = math.sqrt(plausible[0] * plausible[1])
+    best, distance = None, math.inf
+    for candidate in _TIME_UNITS:
+        moved = rate * seconds[unit] / seconds[candidate]
+        if plausible[0] <= moved <= plausible[1] and abs(math.log(moved / middle)) < distance:
+            best, distance = candidate, abs(math.log(moved / middle))
+    return best
 
 
 def saturation(

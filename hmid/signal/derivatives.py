@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from scipy.signal import savgol_filter
@@ -56,7 +57,13 @@ MAX_STEP_JITTER = 0.01
 
 @dataclass(frozen=True)
 class Differentiator(abc.ABC):
-    """A strategy for derivatives of a sampled signal; subclasses implement ``_derivative``."""
+    """A strategy for derivatives of a sampled signal; subclasses implement ``_derivative``.
+
+    ``kind`` is the name a config gives the strategy (``denoise.derivative.kind``); messages
+    name it rather than the class, since that is what the user wrote.
+    """
+
+    kind: ClassVar[str] = "derivative"
 
     def derivative(self, t: np.ndarray, y: np.ndarray, order: int = 1) -> np.ndarray:
         """The ``order``-th time derivative (1 or 2) of ``y`` sampled at ``t``, same length."""
@@ -85,6 +92,7 @@ class SavitzkyGolay(Differentiator):
     derivative order asked for. Needs near-uniform sampling (:data:`MAX_STEP_JITTER`).
     """
 
+    kind: ClassVar[str] = "savitzky_golay"
     window: Window | int
     polyorder: int = 3
 
@@ -101,7 +109,7 @@ class SavitzkyGolay(Differentiator):
         if self.polyorder >= n:
             raise SignalError(
                 f"polyorder {self.polyorder} needs a window of more than {self.polyorder} "
-                f"samples, got {n}"
+                f"samples, got {n}; lengthen the window or lower polyorder"
             )
 
     def _derivative(self, t: np.ndarray, y: np.ndarray, order: int) -> np.ndarray:
@@ -115,9 +123,9 @@ class SavitzkyGolay(Differentiator):
         jitter = float(steps.std() / step)
         if jitter > MAX_STEP_JITTER:
             raise SignalError(
-                f"SavitzkyGolay needs uniform sampling, but the time step varies by {jitter:.1%} "
-                f"(relative std, limit {MAX_STEP_JITTER:.0%}); resample the log or use "
-                "SmoothedFiniteDifference"
+                f"Savitzky-Golay derivatives need uniform sampling, but the time step varies by "
+                f"{jitter:.1%} (relative std, limit {MAX_STEP_JITTER:.0%}); resample the log or "
+                f"use derivative kind {SmoothedFiniteDifference.kind!r}"
             )
         n = self.window.samples(median_dt(t), odd=True)
         self._check_length(n)
@@ -133,6 +141,7 @@ class SmoothedFiniteDifference(Differentiator):
     time base) again before differentiating it.
     """
 
+    kind: ClassVar[str] = "smoothed_difference"
     smoother: Smoother
 
     def __post_init__(self) -> None:
@@ -150,11 +159,15 @@ class SmoothedFiniteDifference(Differentiator):
         for name, arr in (("y", y_s), ("t", t_s)):
             if not np.isfinite(arr).all():
                 i = int(np.argmin(np.isfinite(arr)))
-                raise SignalError(f"{self.smoother!r} returned {arr[i]} for {name}[{i}]")
+                raise SignalError(
+                    f"smoother {self.smoother.kind!r} returned {arr[i]} for {name}[{i}]"
+                )
         bad = np.diff(t_s) <= 0
         if bad.any():
             i = int(np.argmax(bad))
-            raise SignalError(f"{self.smoother!r} made t non-increasing at index {i + 1}")
+            raise SignalError(
+                f"smoother {self.smoother.kind!r} made t non-increasing at index {i + 1}"
+            )
         return np.gradient(y_s, t_s), t_s
 
     def _derivative(self, t: np.ndarray, y: np.ndarray, order: int) -> np.ndarray:
@@ -176,6 +189,7 @@ class DerivativeOfSmoothed(Differentiator):
     single moving average's box edges make its second difference noisy (use ``passes`` >= 2).
     """
 
+    kind: ClassVar[str] = "smoothed"
     smoother: Smoother
 
     def __post_init__(self) -> None:

@@ -34,7 +34,7 @@ from __future__ import annotations
 import abc
 import math
 from dataclasses import dataclass
-from typing import Literal, get_args
+from typing import ClassVar, Literal, get_args
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
@@ -103,7 +103,8 @@ class Window:
         n = math.floor(self.seconds / dt + 0.5)
         if n < 1:
             raise SignalError(
-                f"a window of {self.seconds} s is shorter than half a time step ({dt} s)"
+                f"a window of {self.seconds:g} s is shorter than half a time step ({dt:.4g} s); "
+                "lengthen the window to at least one time step"
             )
         if odd and n % 2 == 0:
             n += 1
@@ -179,7 +180,13 @@ def moving_average(
 # -- strategies ----------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Smoother(abc.ABC):
-    """A smoothing strategy: ``smoother(t, y)`` returns a smoothed copy of ``y``."""
+    """A smoothing strategy: ``smoother(t, y)`` returns a smoothed copy of ``y``.
+
+    ``kind`` is the name a config gives the strategy (``denoise.smoother.kind``); messages name
+    it rather than the class.
+    """
+
+    kind: ClassVar[str] = "smoother"
 
     @abc.abstractmethod
     def __call__(self, t: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -189,6 +196,8 @@ class Smoother(abc.ABC):
 @dataclass(frozen=True)
 class Identity(Smoother):
     """No smoothing: returns a checked copy of ``y``."""
+
+    kind: ClassVar[str] = "identity"
 
     def __call__(self, t: np.ndarray, y: np.ndarray) -> np.ndarray:
         y = as_signal(y)
@@ -208,6 +217,7 @@ class MovingAverage(Smoother):
     log's sampling rate.
     """
 
+    kind: ClassVar[str] = "moving_average"
     window: Window | int
     mode: Mode = "centred"
     edge: Edge = "shrink"

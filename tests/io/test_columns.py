@@ -94,7 +94,7 @@ def test_unknown_top_level_key(tmp_path):
     message = config_error(tmp_path, "channels:\n  t: {column: 0, unit: s}\nmax_gap: 3\n")
     assert message == (
         "key 'max_gap': unknown key; allowed keys are channels, delimiter, header, comment, "
-        "skip_rows, max_gap_factor, min_samples, saturation"
+        "decimal, encoding, skip_rows, max_gap_factor, min_samples, saturation, sample_rate_hz"
     )
 
 
@@ -197,3 +197,38 @@ def test_shipped_pneumatic_map_loads():
         "F": (6, "N"),
     }
     assert columns.max_gap_factor == 300
+
+
+@pytest.mark.parametrize(
+    ("yaml_text", "expected"),
+    [
+        ("decimal: ';;'", "key 'decimal': decimal must be one character"),
+        ("decimal: ','\ndelimiter: ','", "decimal and delimiter must differ"),
+        ("encoding: klingon", "key 'encoding': unknown encoding 'klingon'"),
+        ("encoding: utf-16", "key 'encoding': encoding 'utf-16' is not ASCII-compatible"),
+        ("sample_rate_hz: [5, 1]", "key 'sample_rate_hz': sample_rate_hz must be [low, high]"),
+        ("sample_rate_hz: [0, 10]", "key 'sample_rate_hz': sample_rate_hz must be [low, high]"),
+        ("sample_rate: [1, 10]", "key 'sample_rate': unknown key"),
+    ],
+)
+def test_text_format_and_rate_keys_are_validated(tmp_path, yaml_text, expected):
+    text = f"channels: {{t: {{column: 0, unit: s}}}}\n{yaml_text}"
+    assert config_error(tmp_path, text).startswith(expected)
+
+
+def test_text_format_and_rate_keys_load(tmp_path):
+    text = (
+        "channels: {t: {column: 0, unit: s}}\ndelimiter: ';'\ndecimal: ','\nencoding: latin-1\n"
+        "sample_rate_hz: [10, 2000]\n"
+    )
+    columns = load_column_map(write_yaml(tmp_path, text))
+    assert (columns.decimal, columns.encoding) == (",", "latin-1")
+    assert columns.sample_rate_hz == (10.0, 2000.0)
+    defaults = ColumnMap(channels={"t": ChannelSpec(column=0, unit="s")})
+    assert (defaults.decimal, defaults.encoding) == (".", "utf-8")
+    assert defaults.sample_rate_hz == (1.0, 100_000.0)
+
+
+def test_a_folder_given_as_column_map_says_so(tmp_path):
+    with pytest.raises(ConfigError, match=r"^\S+: is a folder, not a column map; give the path"):
+        load_column_map(tmp_path)

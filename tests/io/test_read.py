@@ -202,3 +202,122 @@ def test_long_log_loads_fast(tmp_path):
     )
     log = read_log(path, columns)
     assert len(log) == n and log.duration == pytest.approx(59.999, abs=1e-9)
+
+
+# -- text formats and their one-line hints (issue 13, item 8) -----------------------------------
+def read_error(path, columns=NAMED) -> str:
+    """The one-line LogError message of ``read_log``, without the ``<path>: `` prefix."""
+    with pytest.raises(LogError) as info:
+        read_log(path, columns)
+    message = str(info.value)
+    assert "\n" not in message and message.startswith(f"{path}: ")
+    return message.removeprefix(f"{path}: ")
+
+
+@pytest.mark.parametrize(
+    ("sep", "name", "yaml"), [(";", "semicolon", '";"'), ("\t", "tab", '"\\t"')]
+)
+def test_one_column_from_a_wrong_delimiter_names_the_delimiter_in_the_header(
+    tmp_path, sep, name, yaml
+):
+    path = write_table(tmp_path / "a.csv", ROWS, sep=sep)
+    assert read_error(path, NAMED.model_copy(update={"delimiter": ","})) == (
+        f"only one column when lines are split at comma, but the header line contains {name}s: "
+        f"is the delimiter {name}? set delimiter: {yaml} in the column map"
+    )
+
+
+def test_decimal_comma_is_offered_and_then_read(tmp_path):
+    path = tmp_path / "a.csv"
+    rows = [("0", "101,3", "12,5"), ("10", "200", "13"), ("20", "350,5", "-1,5"), ("30", "0", "0")]
+    path.write_text("time_ms;p_kpa;pos_mm\n" + "".join(";".join(r) + "\n" for r in rows))
+    assert read_error(path) == (
+        "column 'p_kpa' (channel P): row 1 (line 2): value '101,3' has a decimal comma "
+        '(2 such cell(s) in this column); set decimal: "," in the column map'
+    )
+    assert_expected(read_log(path, NAMED.model_copy(update={"decimal": ","})))
+
+
+def test_comment_lines_are_named_with_the_key_that_skips_them(tmp_path):
+    path = tmp_path / "a.csv"
+    path.write_text(
+        "# logger v2\n# 2026-11-02\n" + write_table(tmp_path / "b.csv", ROWS).read_text()
+    )
+    assert read_error(path) == (
+        "line 1 starts with '#' but the column map sets no comment character: "
+        'set comment: "#" in the column map to skip such lines'
+    )
+    assert_expected(read_log(path, NAMED.model_copy(update={"comment": "#"})))
+
+
+def test_excel_sep_line_is_honoured_or_named(tmp_path):
+    path = tmp_path / "a.csv"
+    body = write_table(tmp_path / "b.csv", ROWS, sep=";").read_text()
+    path.write_text("sep=;\n" + body.replace("350.5", "nan"))
+    # honoured: the rows are counted after it (the NaN is in file line 5)
+    assert read_error(path).startswith("column 'p_kpa' (channel P): row 3 (line 5): value is")
+    path.write_text("sep=;\n" + body)
+    log = read_log(path, NAMED)
+    assert_expected(log)
+    assert log.meta["delimiter"] == ";"
+    assert read_error(path, NAMED.model_copy(update={"delimiter": ","})) == (
+        'line 1 says sep=; (Excel\'s delimiter line) but the column map says delimiter: ","; '
+        "remove one of them"
+    )
+
+
+def test_latin1_header_says_resave_or_set_encoding(tmp_path):
+    path = tmp_path / "a.csv"
+    lines = ["time_ms,p_kpa,pos_mm,T_°C", *(",".join(map(str, row)) + ",20" for row in ROWS)]
+    path.write_bytes("\n".join(lines).encode("latin-1"))
+    assert read_error(path) == (
+        "line 1 (byte 23) is not UTF-8 text: re-save the file as UTF-8 or set encoding: "
+        "latin-1 in the column map (cp1252 for Windows exports)"
+    )
+    columns = ColumnMap(
+        channels=dict(NAMED.channels) | {"T": ChannelSpec(column="T_°C", unit="K")},
+        encoding="latin-1",
+    )
+    log = read_log(path, columns)
+    for name, values in EXPECTED.items():
+        np.testing.assert_allclose(log[name], values, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(log["T"], 20.0)
+
+
+def test_a_folder_is_named_with_what_it_holds(tmp_path):
+    write_table(tmp_path / "b.csv", ROWS)
+    write_table(tmp_path / "a.csv", ROWS)
+    assert read_error(tmp_path) == (
+        "is a folder, not a log file; give the path of one CSV or Parquet file "
+        "(it holds a.csv, b.csv)"
+    )
+
+
+@pytest.mark.parametrize(
+    ("columns", "preamble", "line", "where"),
+    [
+        (NAMED, "", 7, "the header has 3"),
+        (
+            NAMED.model_copy(update={"skip_rows": 1, "comment": "#"}),
+            "junk\n# note\n",
+            9,
+            "the header has 3",
+        ),
+    ],
+)
+def test_a_ragged_line_is_named_by_its_file_line(tmp_path, columns, preamble, line, where):
+    path = tmp_path / "a.csv"
+    rows = "".join(f"{10 * i},1,2\n" for i in range(5))
+    path.write_text(f"{preamble}time_ms,p_kpa,pos_mm\n{rows}50,1,2,3\n60,1,2\n")
+    assert read_error(path, columns) == (
+        f"line {line} has 4 fields where {where}; check the delimiter/quoting of that line"
+    )
+
+
+def test_a_ragged_headerless_line_is_named_by_its_file_line(tmp_path):
+    path = tmp_path / "a.csv"
+    path.write_text("".join(f"{10 * i},1,2\n" for i in range(5)) + "50,1,2,3\n60,1,2\n")
+    positional = ColumnMap(channels={"t": ChannelSpec(column=0, unit="ms")}, header=False)
+    assert read_error(path, positional) == (
+        "line 6 has 4 fields where the first row has 3; check the delimiter/quoting of that line"
+    )

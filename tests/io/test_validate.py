@@ -254,12 +254,12 @@ def test_saturation_error_mode_raises(tmp_path):
         (b"", "the file is empty; expected a table with a time column"),
         (b"  \n\r\n\t\n", "the file is empty; expected a table with a time column"),
         (bytes(range(256)) * 4, "the file contains NUL bytes, so it is not a text table"),
-        (b"time,p,pos\n0,1,\xff\xfe\n", "line 2 (byte 15) is not UTF-8 text, so it is not a CSV"),
+        (b"time,p,pos\n0,1,\xff\xfe\n", "line 2 (byte 15) is not UTF-8 text: re-save the file"),
         (b"time,p,pos\n", "only 0 sample(s), at least 2 are needed"),
         (b"\xef\xbb\xbftime,p,pos\n0,1,2\n", "only 1 sample(s), at least 2 are needed"),
-        (b"time,p,pos\n0,1,2,3\n10,1,2,3\n", "some data rows have more fields than the header"),
-        (b"time,p,pos\n0,1,2\n10,1,2,3\n", "cannot parse as a table: Error tokenizing data."),
-        (b'time,p,pos\n0,1,"2\n10,1,2\n', "cannot parse as a table: Error tokenizing data."),
+        (b"time,p,pos\n0,1,2,3\n10,1,2,3\n", "line 2 has 4 fields where the header has 3; check"),
+        (b"time,p,pos\n0,1,2\n10,1,2,3\n", "line 3 has 4 fields where the header has 3; check"),
+        (b'time,p,pos\n0,1,"2\n10,1,2\n', "cannot parse as a table: EOF inside string starting"),
         (b"# only a comment\n", "no table found (no data lines after skip_rows=0)"),
     ],
 )
@@ -298,3 +298,56 @@ def test_a_mapped_header_name_given_twice_is_an_error(tmp_path):
     path.write_text("time,p,p,pos\n0,1,2,3\n10,1,2,3\n20,1,2,3\n")
     with pytest.raises(LogError, match=r"column 'p' \(channel P\) appears 2 times"):
         read_log(path, COLUMNS)
+
+
+# -- plausibility of the time base (issue 13, item 4) -------------------------------------------
+def time_table(path, times, column="t"):
+    path.write_text(f"{column},p,pos\n" + "".join(f"{float(v)!r},1,2\n" for v in times))
+    return path
+
+
+def time_map(unit: str, **update) -> ColumnMap:
+    channels = {"t": ChannelSpec(column="t", unit=unit), "x": ChannelSpec(column="pos", unit="mm")}
+    return ColumnMap(channels=channels, **update)
+
+
+@pytest.mark.parametrize("rows", [75_000, 15_000])
+def test_seconds_mapped_as_ms_names_the_rate_and_the_unit_to_set(tmp_path, rows):
+    # a 1 kHz log in seconds read as ms: 1 MHz, and with 15,000 rows 0.015 s, which the
+    # denoise stage used to reject with "shorten the windows"
+    path = time_table(tmp_path / "a.csv", np.arange(rows) * 1e-3)
+    message = log_error(path, time_map("ms"))
+    assert message == (
+        f"column 't' (channel t): median sampling rate 1e+06 Hz ({rows} samples in "
+        f"{(rows - 1) * 1e-6:.4g} s) is outside the plausible 1 to 100000 Hz; time looks like "
+        "s mapped as 'ms': set channels.t.unit: s in the column map (or sample_rate_hz: "
+        "[low, high] there if the rig really samples at 1e+06 Hz)"
+    )
+    assert len(read_log(path, time_map("s"))) == rows  # the suggested fix loads it
+
+
+def test_ms_mapped_as_seconds_suggests_ms(tmp_path):
+    path = time_table(tmp_path / "a.csv", np.arange(50) * 10.0)  # 100 Hz in ms
+    message = log_error(path, time_map("s"))
+    assert "median sampling rate 0.1 Hz" in message
+    assert "time looks like ms mapped as 's': set channels.t.unit: ms" in message
+
+
+def test_declared_rate_range_accepts_a_fast_rig_and_the_check_covers_frames(tmp_path):
+    path = time_table(tmp_path / "a.csv", np.arange(100) * 1e-3)
+    fast = time_map("ms", sample_rate_hz=(1e5, 2e6))
+    assert read_log(path, fast).sample_rate == pytest.approx(1e6)
+    frame = pd.DataFrame({"t": np.arange(100) * 1e-3, "pos": np.zeros(100)})
+    with pytest.raises(LogError, match=r"^sim: column 't' \(channel t\): median sampling rate 1e"):
+        log_from_frame(frame, time_map("ms"), source="sim")
+    assert len(log_from_frame(frame, fast, source="sim")) == 100
+
+
+def test_implausible_rate_without_a_plausible_unit_says_what_to_check(tmp_path):
+    path = time_table(tmp_path / "a.csv", np.arange(50) * 1e-9)  # 1 GHz in seconds
+    message = log_error(path, time_map("s"))
+    assert "median sampling rate 1e+09 Hz" in message
+    assert message.endswith(
+        "check channels.t.unit and scale in the column map, or set sample_rate_hz: "
+        "[low, high] there if the rig really samples at 1e+09 Hz"
+    )

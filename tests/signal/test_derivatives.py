@@ -101,7 +101,9 @@ def test_smoothed_finite_difference_handles_uneven_steps() -> None:
     for order, est in ((1, v), (2, a)):
         rms = np.sqrt(np.mean((est - true_derivative(t, order))[inner] ** 2))
         assert rms < 1.15 * predicted_rms_error(d, uniform, order)
-    with pytest.raises(SignalError, match="resample the log or use SmoothedFiniteDifference"):
+    with pytest.raises(
+        SignalError, match="resample the log or use derivative kind 'smoothed_difference'"
+    ):
         STRATEGIES["savitzky-golay"].derivative(t, measured_position(t, seed=12))
 
 
