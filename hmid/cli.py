@@ -8,7 +8,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from hmid.errors import HmidError
+from hmid.errors import HmidError, HmidWarning
 
 _DESCRIPTION = """\
 hmid: system identification of soft fluidic actuators (the Hydro Muscle).
@@ -275,7 +275,16 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    print(f"hmid: warning: {message}", file=sys.stderr)
+    """hmid's findings as ``hmid: warning:``; a library's own warning in one line that says
+    whose it is, so it is never read as one of hmid's findings."""
+    text = " ".join(str(message).split())
+    if issubclass(category, HmidWarning):
+        print(f"hmid: warning: {text}", file=sys.stderr)
+        return
+    parts = Path(filename).parts
+    package = parts[parts.index("site-packages") + 1] if "site-packages" in parts else None
+    origin = package or ("hmid" if "hmid" in parts else Path(filename).name)
+    print(f"hmid: note from {origin} ({category.__name__}): {text}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:

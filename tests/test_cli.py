@@ -209,3 +209,17 @@ def test_ctrl_c_is_one_line_and_the_run_is_marked_failed(tmp_path, capsys, monke
     assert record["status"] == "failed" and record["error"] == "interrupted (Ctrl-C)"
     assert main(["runs", str(results), "--failed"]) == 0
     assert "failed" in capsys.readouterr().out
+
+
+def test_a_library_warning_is_not_passed_off_as_a_finding_of_hmid(capsys):
+    from hmid.cli import _show_warning
+    from hmid.errors import HmidWarning
+
+    numpy_file = "/x/.venv/lib/python3.12/site-packages/numpy/_core/multiarray.py"
+    _show_warning("overflow encountered\nin multiply", RuntimeWarning, numpy_file, 3)
+    _show_warning("k1 < 0: check rig.channels.x.sign", HmidWarning, "/x/hmid/balance/checks.py", 9)
+    err = capsys.readouterr().err.splitlines()
+    assert err == [
+        "hmid: note from numpy (RuntimeWarning): overflow encountered in multiply",
+        "hmid: warning: k1 < 0: check rig.channels.x.sign",
+    ]

@@ -220,6 +220,12 @@ def simulate(
     acc = eom.acceleration
     times, pressures = np.asarray(t, dtype=float).tolist(), np.asarray(P, dtype=float).tolist()
     lo, hi = x_bounds
+    with np.errstate(over="ignore", invalid="ignore"):  # a diverging run is detected below
+        return _integrate(acc, times, pressures, xs, vs, x, v, substeps, lo, hi, v_limit, deadline)
+
+
+def _integrate(acc, times, pressures, xs, vs, x, v, substeps, lo, hi, v_limit, deadline) -> _Run:
+    n = len(times)
     for k in range(n - 1):
         try:
             h = (times[k + 1] - times[k]) / substeps

@@ -26,6 +26,8 @@ from filelock import FileLock, Timeout
 from hmid.errors import HmidWarning
 from hmid.models.sls._errors import SamplerError
 
+#: the fix a chain-file error offers (the file is a cache: deleting it only costs sampling time)
+FIX = "delete it to sample afresh (hmid run --force does)"
 _KEEP_CHECKPOINTS = 2  # the newest checkpoints kept; older ones are deleted
 
 
@@ -86,14 +88,15 @@ class _Store:
             return h5py.File(self.path, mode)
         except OSError as exc:
             raise SamplerError(
-                f"{self.path}: cannot open as an HDF5 chain file ({exc}); delete it or choose "
-                f"another backend_path"
+                f"{self.path}: cannot open as an HDF5 chain file ({exc}); {FIX}"
             ) from exc
 
     def prepare(self, fresh: bool = False) -> dict[str, Any] | None:
         """Refuse a foreign or mismatching file; return its newest valid checkpoint, if any
         (none with ``fresh``: the chain is then sampled anew)."""
-        if not self.path.exists() or fresh:
+        if fresh:
+            self.path.unlink(missing_ok=True)  # under the lock: no other writer holds it
+        if not self.path.exists():
             return None
         with self._open("a") as f:
             foreign = sorted(set(f) - {"mcmc", "hmid"})
@@ -103,8 +106,7 @@ class _Store:
                 stored = None
             if foreign or (stored is None and "mcmc" in f):
                 raise SamplerError(
-                    f"{self.path}: not a chain file written by hmid's sampler; choose another "
-                    f"backend_path"
+                    f"{self.path}: not a chain file written by hmid's sampler; {FIX}"
                 )
             if stored is None:
                 return None
@@ -114,7 +116,7 @@ class _Store:
                 diff = [k for k in self.meta if stored.get(k) != self.meta[k]]
                 raise SamplerError(
                     f"{self.path}: holds a chain sampled with a different configuration (differs "
-                    f"in {', '.join(diff)}); delete the file or choose another backend_path"
+                    f"in {', '.join(diff)}); {FIX}"
                 )
             return self._newest_checkpoint(f)
 

@@ -50,7 +50,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from hmid.errors import ConfigError
-from hmid.models.sls._chainfile import _state_from_json, _Store
+from hmid.models.sls._chainfile import FIX, _state_from_json, _Store
 from hmid.models.sls._convergence import acceptance, converged, replay, tau_of
 from hmid.models.sls._errors import SamplerError, SamplingInterrupted
 from hmid.models.sls._logprob import LogProb
@@ -328,8 +328,7 @@ def _check_same_target(target, coords, logp, path):
         delta = np.nanmax(np.abs(now - logp))
         raise SamplerError(
             f"{path}: log_prob at the stored chain's last walkers differs from the stored values "
-            f"(max |difference| {delta:.3g}): the data or model changed; delete the file or "
-            f"choose another backend_path"
+            f"(max |difference| {delta:.3g}): the data or model changed; {FIX}"
         )
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -111,3 +112,17 @@ def test_a_rig_without_declared_motion_has_no_equation_of_motion(ch4_rig, true_f
     with pytest.raises(ConfigError, match=r"rig\.motion"):
         EquationOfMotion.from_rig(empty, ch4_rig.model_copy(update={"motion": None}),
                                   true_friction, 1e-3)  # fmt: skip
+
+
+def test_a_diverging_run_is_reported_without_numpy_overflow_warnings():
+    """A run that blows up is the free run's to report ("diverged"); numpy's 'overflow
+    encountered in multiply' on the way there is not news for the console."""
+
+    class Exploding:
+        def acceleration(self, x, v, P):
+            return np.float64(1e200) * np.float64(x) * np.float64(1e200)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # any warning fails the test
+        run = simulate(Exploding(), np.linspace(0, 1, 50), np.zeros(50), 1.0, 0.0, x_bounds=(-9, 9))
+    assert run.status == "diverged" and run.failed_at is not None

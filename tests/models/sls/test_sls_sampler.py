@@ -228,8 +228,14 @@ def test_mismatching_or_foreign_chain_files_are_refused(tmp_path):
         run_sampler(_banana, np.array([0.1, 0.2]), config, names=["x", "y"], backend_path=foreign)
     text = tmp_path / "notes.h5"
     text.write_text("not hdf5")
-    with pytest.raises(SamplerError, match="cannot open as an HDF5 chain file"):
+    with pytest.raises(SamplerError, match="cannot open as an HDF5 chain file") as info:
         run_sampler(_banana, np.array([0.1, 0.2]), config, names=["x", "y"], backend_path=text)
+    # the fix names what a user can do, not a keyword argument no config has
+    assert str(info.value).endswith("delete it to sample afresh (hmid run --force does)")
+    fresh = run_sampler(
+        _banana, np.array([0.1, 0.2]), config, names=["x", "y"], backend_path=text, fresh=True
+    )
+    assert fresh.n_steps == 100
 
 
 def test_non_finite_start_is_reported():
