@@ -19,11 +19,18 @@ def _section(*names):
 
 
 STAGES = (
-    Stage("load", s.load, (), s.load_depends),
-    Stage("denoise", s.denoise, ("load",), _section("denoise", "rig")),
+    # the data stages are redone on every run (fast); the cache holds results, not copies of logs
+    Stage("load", s.load, (), s.load_depends, store=False),
+    Stage("denoise", s.denoise, ("load",), _section("denoise", "rig"), store=False),
     Stage("friction", s.friction, ("denoise",), _section("friction", "rig", "denoise")),
-    Stage("signals", s.signals, ("denoise", "friction"), _section("rig", "fit", "denoise")),
-    Stage("split", s.split, ("signals",), _section("split")),
+    Stage(
+        "signals",
+        s.signals,
+        ("denoise", "friction"),
+        _section("rig", "fit", "denoise"),
+        store=False,
+    ),
+    Stage("split", s.split, ("signals",), _section("split"), store=False),
     Stage(
         "fit",
         s.fit,

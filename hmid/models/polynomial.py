@@ -92,8 +92,9 @@ class PolynomialModel(ForceModel):
     Fitted attributes, in physical units and term order: ``coef_``, ``bse_`` (standard errors),
     ``conf_int_`` (n_terms x 2), ``pvalues_``, ``term_names_``, ``coefficients_`` (tuple of
     :class:`Coefficient`), ``summary_`` (:class:`FitSummary`); also ``result_`` (the statsmodels
-    results on the *scaled* features), ``scales_`` (the divisor of each variable),
-    ``condition_number_`` (scaled design), ``condition_number_unscaled_`` and ``durbin_watson_``.
+    results on the *scaled* features, its data arrays removed), ``scales_`` (the divisor of each
+    variable), ``condition_number_`` (scaled design), ``condition_number_unscaled_`` and
+    ``durbin_watson_``.
     """
 
     family = "polynomial"
@@ -203,6 +204,9 @@ class PolynomialModel(ForceModel):
             warnings=self._diagnose(int(result.model.rank), p),
             **stats,
         )
+        # results, not copies of the data: the stage cache pickles this model (a 10 M-row log
+        # left 3 GB of design matrix and residuals in it)
+        result.remove_data()
 
     def _diagnose(self, rank: int, p: int) -> tuple[str, ...]:
         found = []

@@ -38,12 +38,17 @@ COMPUTING = ("numpy", "scipy", "pandas", "jax", "jaxlib", "pysindy", "emcee", "s
 
 @dataclass(frozen=True)
 class Stage:
-    """One pipeline step: ``fn(config, **upstream) -> artifact``, pure apart from reading inputs."""
+    """One pipeline step: ``fn(config, **upstream) -> artifact``, pure apart from reading inputs.
+
+    ``store=False`` for stages whose artifact is the data itself (loaded, smoothed, split): they
+    are cheap to redo and a cache of them would copy every log several times over.
+    """
 
     name: str
     fn: Callable[..., Any]
     inputs: tuple[str, ...] = ()
     depends: Callable[[Any], Any] = lambda config: None
+    store: bool = True
 
 
 @cache
@@ -73,7 +78,7 @@ def code_fingerprint() -> str:
 @dataclass
 class StageRecord:
     key: str
-    cached: bool
+    cached: bool | None  # None: a stage that is never stored (the data stages)
     wall_s: float
 
 
@@ -108,23 +113,31 @@ class Runner:
             key = self._key(stage, config, [self.records[n].key for n in stage.inputs])
             path = self.cache_dir / f"{stage.name}-{key[:20]}.pkl"
             start = time.perf_counter()
-            self.cache_dir.mkdir(parents=True, exist_ok=True)
-            with _locked(path, f"stage {stage.name!r}"):
-                found = None if self.force else self._read(stage, path)
-                if found is not None:
-                    artifacts[stage.name] = found[0]
-                else:
-                    upstream = {name: artifacts[name] for name in stage.inputs}
-                    parameters = inspect.signature(stage.fn).parameters
-                    if "workdir" in parameters:
-                        upstream["workdir"] = self.cache_dir  # resumable side work (MCMC chains)
-                    if "force" in parameters:
-                        upstream["force"] = self.force
-                    artifacts[stage.name] = stage.fn(config, **upstream)
-                    write_entry(path, artifacts[stage.name])
-            record = StageRecord(key, found is not None, time.perf_counter() - start)
+            if not stage.store:
+                found = None
+                artifacts[stage.name] = self._compute(stage, config, artifacts)
+            else:
+                self.cache_dir.mkdir(parents=True, exist_ok=True)
+                with _locked(path, f"stage {stage.name!r}"):
+                    found = None if self.force else self._read(stage, path)
+                    if found is not None:
+                        artifacts[stage.name] = found[0]
+                    else:
+                        artifacts[stage.name] = self._compute(stage, config, artifacts)
+                        write_entry(path, artifacts[stage.name])
+            cached = (found is not None) if stage.store else None
+            record = StageRecord(key, cached, time.perf_counter() - start)
             self.records[stage.name] = record
         return artifacts
+
+    def _compute(self, stage: Stage, config: Any, artifacts: dict[str, Any]) -> Any:
+        upstream = {name: artifacts[name] for name in stage.inputs}
+        parameters = inspect.signature(stage.fn).parameters
+        if "workdir" in parameters:
+            upstream["workdir"] = self.cache_dir  # for resumable side work (MCMC chains)
+        if "force" in parameters:
+            upstream["force"] = self.force
+        return stage.fn(config, **upstream)
 
     @staticmethod
     def _read(stage: Stage, path: Path) -> tuple[Any] | None:

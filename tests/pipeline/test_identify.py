@@ -108,10 +108,22 @@ def test_same_config_same_numbers_new_folder_cached_stages(first_run, workspace)
     assert run_dir2 != run_dir and run_dir.is_dir()  # never overwritten
     assert metrics2 == metrics
     manifest = json.loads((run_dir2 / "manifest.json").read_text())
-    assert all(manifest["stage_cached"].values())
+    stored = {k: v for k, v in manifest["stage_cached"].items() if v is not None}
+    assert set(stored) == {"friction", "fit", "compare", "loop"} and all(stored.values())
     forced_dir, forced = run(_config(workspace), results=results, force=True)
     assert forced == metrics
     assert not any(json.loads((forced_dir / "manifest.json").read_text())["stage_cached"].values())
+
+
+def test_the_cache_holds_results_not_copies_of_the_logs(first_run, workspace):
+    """Issue "Trust" item 10: the data stages are never stored; the fitted models drop their
+    design matrices. The whole cache stays below the size of the logs it was made from."""
+    results, _, _ = first_run
+    cache = sum(p.stat().st_size for p in (results / "small" / ".cache").rglob("*.pkl"))
+    logs = sum(p.stat().st_size for p in (workspace / "data").glob("*.csv"))
+    names = {p.name.split("-")[0] for p in (results / "small" / ".cache").glob("*.pkl")}
+    assert not names & {"load", "denoise", "signals", "split"}
+    assert cache < logs, (cache, logs)
 
 
 def test_changing_the_split_recomputes_from_the_split_on(first_run, workspace):
@@ -119,8 +131,8 @@ def test_changing_the_split_recomputes_from_the_split_on(first_run, workspace):
     path = _config(workspace, split={"kind": "time_block", "validation_fraction": 0.4})
     run_dir, metrics = run(path, results=results)
     cached = json.loads((run_dir / "manifest.json").read_text())["stage_cached"]
-    assert cached["load"] and cached["denoise"] and cached["friction"] and cached["signals"]
-    assert not cached["split"] and not cached["fit"] and not cached["compare"]
+    assert cached["friction"] and not cached["fit"] and not cached["compare"]
+    assert cached["load"] is cached["denoise"] is cached["signals"] is cached["split"] is None
     assert metrics["rows"]["validation"] > 0.3 * 16000
 
 
