@@ -124,7 +124,15 @@ class ConstantTerm(TermSpec):
 
 
 class ChannelTerm(TermSpec):
-    """A channel, a power or a product of channels (``x``, ``x^3``, ``x*P``), as smoothed."""
+    """A channel, a power or a product of channels (``x``, ``x^3``, ``x*P``), as smoothed.
+
+    A single channel is the smoothed channel. A power or product of logged channels is
+    evaluated on the raw signals and smoothed after, as the measured force that contains it was:
+    the product of smoothed signals differs from the smoothed product by the signals' variation
+    within the kernel (for x³ by ≈ 3x·var(x): it grows as v² and is the same in both directions,
+    so a loop would read it as friction). Products with v or a, derivatives of the smoothed
+    position, stay products of smoothed signals.
+    """
 
     kind: Literal["channel"] = "channel"
     channel: str
@@ -153,10 +161,18 @@ class ChannelTerm(TermSpec):
         return Monomial.parse(self.channel).pretty
 
     def columns(self, signals, value):
+        powers = self.powers()
+        logged = all(signals.is_logged(channel) for channel in powers)
         values = np.ones(len(signals))
-        for channel, power in self.powers().items():
-            values = values * signals[channel] ** power
-        return self._column(signals, values)
+        if sum(powers.values()) == 1 or not logged:
+            # linear: smoothing commutes with it; v and a are derivatives of the smoothed
+            # position, with no unsmoothed version to evaluate a product on
+            for channel, power in powers.items():
+                values = values * signals[channel] ** power
+            return self._column(signals, values)
+        for channel, power in powers.items():
+            values = values * signals[raw(channel)] ** power
+        return self._column(signals, signals.smooth(values))
 
 
 class CoulombTerm(TermSpec):

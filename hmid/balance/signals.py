@@ -135,6 +135,12 @@ class Signals:
         t = self["t"][:1000]
         return float(np.median(np.diff(t))) if len(t) > 1 else 1.0
 
+    def is_logged(self, channel: str) -> bool:
+        """Whether ``channel`` has an unsmoothed log behind it (not v or a, which are
+        derivatives of the smoothed position, and not t)."""
+        derived = ("v", "a") if self.position is not None else ()
+        return channel in self.channels and channel not in derived
+
     def smooth(self, values: np.ndarray) -> np.ndarray:
         """``values`` through the experiment's zero-phase smoother, segment by segment: a term
         that is not linear in the signals (sign(v), a product) is evaluated first and smoothed

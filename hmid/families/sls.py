@@ -92,9 +92,14 @@ class SLSSpec(FamilySpec):
         return Structure.of(terms, values)
 
     def _segments(self, data: FitData, role: str, stride: int | None = None) -> list[pd.DataFrame]:
+        from hmid.balance.signals import raw
+
         signals, rig = data.signals, data.rig
         frame = signals.frame
         rows, target = signals.rows(role), data.slot_sign * signals.target
+        unsmoothed = raw(rig.position) if raw(rig.position) in frame else rig.position
+        # the cube of the unsmoothed x, smoothed as the force that contains k3 x³ was
+        cube = signals.smooth(frame[unsmoothed].to_numpy() ** 3)
         segments = []
         for index in signals.segments():
             index = index[:: self.stride if stride is None else stride]
@@ -104,6 +109,7 @@ class SLSSpec(FamilySpec):
                     {
                         "t": t,
                         "x": frame[rig.position].to_numpy()[index],
+                        "x3": cube[index],
                         "P": frame[self.pressure].to_numpy()[index],
                         "F": np.where(rows[index], target[index], np.nan),
                         "use": rows[index] & (t >= t[0] + self.memory_warmup_s),
@@ -143,7 +149,7 @@ class SLSSpec(FamilySpec):
         # only what defines the chain: budgets and post-processing may change and still resume
         chain_fields = {"spring", "arms", "noise", "memory_warmup_s", "stride", "walkers"}
         digest = hashlib.sha256(self.model_dump_json(include=chain_fields).encode())
-        for array in (data.t, data.x, data.P, data.F, data.use):
+        for array in (data.t, data.x, data.x3, data.P, data.F, data.use):
             digest.update(np.asarray(array).tobytes())
         fingerprint = f"{digest.hexdigest()[:16]}-{noise}-{context.seed}"
         context.workdir.mkdir(parents=True, exist_ok=True)

@@ -87,3 +87,31 @@ def test_coulomb_is_the_sign_of_the_velocity_estimate_through_the_smoother():
     column = term.columns(signals, None).values[:, 0]
     np.testing.assert_array_equal(column, -np.sign(signals["raw:v"]))  # no smoother here
     assert term.positive and term.regressor() == "sign(v)"
+
+
+def test_a_power_of_a_logged_channel_is_smoothed_after_it_is_evaluated():
+    """The measured force holds S[k3 x³] (the smoother S acts on the force); the regressor must
+    be S[x_raw³], not (S x)³: their difference, ≈ 3x·var(x) within the kernel, is even in v and
+    was read by the loop as direction-dependent Stribeck friction on the knee rig."""
+    from dataclasses import replace
+
+    from hmid.balance.structure import Structure, fit
+    from hmid.signal import MovingAverage
+
+    smoother = MovingAverage(window=25, passes=3)
+    plain = signals_with()
+    frame = plain.frame.copy()  # raw:x is the exact x; x becomes its smoothed version
+    t = frame["t"].to_numpy()
+    frame["x"] = np.concatenate(
+        [smoother(t[r], frame["raw:x"].to_numpy()[r]) for r in plain.segments()]
+    )
+    signals = replace(plain, frame=frame, smoother=smoother, cache={})
+    k3 = 2e6
+    signals = signals.with_columns(target=-k3 * signals.smooth(signals["raw:x"] ** 3))
+    term = make_term({"kind": "channel", "name": "k3", "channel": "x^3", "sign": -1})
+    result = fit(Structure.of([term]), signals)
+    assert result.params["k3"] == pytest.approx(k3, rel=1e-9)
+    usable = signals.usable
+    assert np.max(np.abs(result.residual[usable])) < 1e-9 * k3 * 0.02**3
+    cube_of_smoothed = -k3 * signals["x"] ** 3  # what the term used to read: visibly off
+    assert np.max(np.abs((signals.target - cube_of_smoothed)[usable])) > 1e-3

@@ -28,7 +28,9 @@ class SLSData(NamedTuple):
 
     ``t`` [s] time (strictly increasing within a log; it may restart between logs), ``x`` [m]
     elongation, ``P`` [Pa] gauge pressure, ``F`` [N] observed muscle force, ``use`` (bool) the
-    samples in the likelihood, ``start`` (bool) the first sample of each log.
+    samples in the likelihood, ``start`` (bool) the first sample of each log, ``x3`` [m³] the
+    cubic spring's regressor: x³, or where ``x`` and ``F`` are smoothed, the smoothed cube of the
+    unsmoothed x (the cube of a smoothed x is biased by x's variation within the kernel).
     """
 
     t: jax.Array
@@ -37,6 +39,7 @@ class SLSData(NamedTuple):
     F: jax.Array
     use: jax.Array
     start: jax.Array
+    x3: jax.Array
 
     @property
     def n(self) -> int:
@@ -44,7 +47,8 @@ class SLSData(NamedTuple):
 
 
 def sls_data(segments: Sequence[pd.DataFrame]) -> SLSData:
-    """Concatenate logs (DataFrames with columns t, x, P, F, use) into one :class:`SLSData`.
+    """Concatenate logs (DataFrames with columns t, x, P, F, use, optional x3 (default x³))
+    into one :class:`SLSData`.
 
     ``t``, ``x`` and ``P`` must be finite everywhere (the memory recursion reads every sample);
     ``F`` must be finite where ``use`` is true (it is never read elsewhere and is stored as 0
@@ -54,7 +58,7 @@ def sls_data(segments: Sequence[pd.DataFrame]) -> SLSData:
         segments = [segments]
     if len(segments) == 0:
         raise SignalError("sls_data: no segments given; pass a list of DataFrames")
-    parts: dict[str, list[np.ndarray]] = {c: [] for c in (*_COLUMNS, "start")}
+    parts: dict[str, list[np.ndarray]] = {c: [] for c in (*_COLUMNS, "start", "x3")}
     for i, frame in enumerate(segments):
         source = f"sls_data segment {i}"
         if not isinstance(frame, pd.DataFrame):
@@ -73,7 +77,7 @@ def sls_data(segments: Sequence[pd.DataFrame]) -> SLSData:
                 "use a True/False mask"
             )
         columns = {}
-        for name in ("t", "x", "P", "F"):
+        for name in ("t", "x", "P", "F", *(("x3",) if "x3" in frame.columns else ())):
             try:
                 values = frame[name].to_numpy(dtype="float64")
             except (TypeError, ValueError):
@@ -97,6 +101,7 @@ def sls_data(segments: Sequence[pd.DataFrame]) -> SLSData:
                 f"(previous {columns['t'][row - 1]}); sort the log or split it there"
             )
         columns["F"] = np.where(use, columns["F"], 0.0)
+        columns.setdefault("x3", columns["x"] ** 3)
         start = np.zeros(len(frame), dtype=bool)
         start[0] = True
         for name, values in (*columns.items(), ("use", use), ("start", start)):
@@ -112,4 +117,5 @@ def sls_data(segments: Sequence[pd.DataFrame]) -> SLSData:
             F=jnp.asarray(arrays["F"], dtype=jnp.float64),
             use=jnp.asarray(arrays["use"], dtype=bool),
             start=jnp.asarray(arrays["start"], dtype=bool),
+            x3=jnp.asarray(arrays["x3"], dtype=jnp.float64),
         )

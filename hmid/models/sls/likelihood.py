@@ -44,11 +44,11 @@ _LOG_2PI = math.log(2.0 * math.pi)
 CHUNK = 8192
 
 
-def _mean_force(space: SLSSpace, mech, x: jax.Array, P: jax.Array, g: jax.Array) -> jax.Array:
-    """Force (rows, W) from x, P (rows,) and the unit arm responses g (rows, W, m)."""
+def _mean_force(space: SLSSpace, mech, x, x3, P, g: jax.Array) -> jax.Array:
+    """Force (rows, W) from x, x3 (the spring's cube, see SLSData), P (rows,) and the unit arm
+    responses g (rows, W, m)."""
     q = jnp.einsum("nwm,wm->nw", g, mech.k2) if space.arms > 1 else g[..., 0] * mech.k2[:, 0]
-    x = x[:, None]
-    spring = mech.k1 * x + (mech.k3 * x**3 if space.spring == "cubic" else 0.0)
+    spring = mech.k1 * x[:, None] + (mech.k3 * x3[:, None] if space.spring == "cubic" else 0.0)
     return mech.A_eff * P[:, None] + mech.F0 - spring - q
 
 
@@ -63,14 +63,14 @@ def _chunked(space: SLSSpace, theta: jax.Array, data: SLSData, step, init):
     n = data.t.shape[0]
     chunk = min(CHUNK, n)
     dt, v = intervals(data.t, data.x, data.start)
-    columns = (dt, v, data.x, data.P, data.F, data.use, chained(data.use, data.start))
+    columns = (dt, v, data.x, data.x3, data.P, data.F, data.use, chained(data.use, data.start))
     rows = tuple(jnp.pad(c, (0, -n % chunk)).reshape(-1, chunk) for c in columns)
 
     def body(carry, rows):
         q, state = carry
-        dt, v, x, P, F, use, chain = rows
+        dt, v, x, x3, P, F, use, chain = rows
         g = scan_sequential(dt, v, mech.tau, q)  # padding: dt = 0, so a = b = 0
-        state, out = step(state, _mean_force(space, mech, x, P, g), F, use, chain)
+        state, out = step(state, _mean_force(space, mech, x, x3, P, g), F, use, chain)
         return (g[-1], state), out
 
     carry = (jnp.zeros_like(mech.tau), init)
@@ -88,7 +88,7 @@ def force(space: SLSSpace, theta: jax.Array, data: SLSData, scan: str = SCAN) ->
         return out.reshape(-1, theta.shape[0])[: data.t.shape[0]]
     mech = space.mechanics(theta)
     g = unit_response(data.t, data.x, data.start, mech.tau, scan)  # (n, W, m)
-    return _mean_force(space, mech, data.x, data.P, g)
+    return _mean_force(space, mech, data.x, data.x3, data.P, g)
 
 
 def chained(use: jax.Array, start: jax.Array) -> jax.Array:

@@ -99,8 +99,11 @@ def _design(space: SLSSpace, data: SLSData, grid: np.ndarray):
     signals = Signals.from_frame(frame, {"x": "m", "P": "Pa", "target": "N"}, position="x")
     terms = sls_terms(space.spring, space.arms)
     linear = Structure.of([t for t in terms if t.hyper is None]).columns(signals)
+    values, names = np.array(linear.values), list(linear.names)
+    if "k3" in names:  # the data's cube (smoothed where x is), as the likelihood reads it
+        values[:, names.index("k3")] = -np.asarray(data.x3)
     arms = -memory_arms(signals, "x", tuple(float(g) for g in grid)).T  # k2 enters as -k2 g
-    return linear.values, list(linear.names), arms
+    return values, names, arms
 
 
 def _lstsq_scaled(design: np.ndarray, y: np.ndarray) -> np.ndarray:

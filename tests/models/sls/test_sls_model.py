@@ -253,3 +253,16 @@ def test_chunked_likelihood_equals_the_whole_array_scan(noise, chunk, monkeypatc
         chunked_force = likelihood.force(model.space, batch, data, "sequential")
     np.testing.assert_allclose(np.asarray(chunked), np.asarray(whole), rtol=1e-12)
     np.testing.assert_allclose(np.asarray(chunked_force), np.asarray(whole_force), rtol=1e-12)
+
+
+def test_the_cubic_spring_reads_the_data_s_cube_where_one_is_given():
+    """Where x and F are smoothed, x3 carries the smoothed cube of the unsmoothed x (the cube of
+    a smoothed x is biased); without it the cube of x is used, as for unsmoothed data."""
+    t = np.arange(1, 2001) / 1000.0
+    x = 0.01 + 0.005 * np.sin(2 * np.pi * t)
+    frame = pd.DataFrame({"t": t, "x": x, "P": 2e5, "F": 0.0, "use": True})
+    theta = {"A_eff": 2e-4, "F0": 0.0, "k1": 3e3, "k3": 2e6, "k2": 1e3, "tau": 0.2}
+    model = SLSModel(spring="cubic")
+    plain = model.predict(theta, sls_data([frame]))
+    shifted = model.predict(theta, sls_data([frame.assign(x3=x**3 + 1e-8)]))
+    np.testing.assert_allclose(plain - shifted, 2e6 * 1e-8, rtol=1e-9)
