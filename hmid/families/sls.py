@@ -46,6 +46,11 @@ class SLSSpec(FamilySpec):
     noise: Literal["iid", "auto", "ar1"] = "iid"
     memory_warmup_s: Annotated[float, Field(ge=0)] = 1.0
     stride: Annotated[int, Field(ge=1, le=50)] = 1  # use every stride-th sample (fewer = faster)
+    # "exact": A_eff, F0, k1, k3, k2 and sigma integrated out (flat prior, 1/sigma), tau and phi
+    # on a grid, independent draws (one arm); "mcmc": emcee over every coordinate (log scale,
+    # weakly informative priors); "auto": exact for one arm, mcmc for several
+    posterior: Literal["auto", "exact", "mcmc"] = "auto"
+    draws: Annotated[int, Field(ge=100, le=100_000)] = 4000  # independent draws (exact)
     walkers: Annotated[int, Field(ge=4, le=512)] = 32
     max_steps: Annotated[int, Field(ge=100)] = 20000
     # a safety net only: a run stopped by wall time depends on machine speed (the report says so)
@@ -65,7 +70,12 @@ class SLSSpec(FamilySpec):
         if rig.position is None:
             raise ValueError("family 'sls' needs the rig's position (the elongation x)")
         self.channels_needed(rig, [self.pressure])
-        if self.walkers % 2 or self.walkers < 2 * self.dimension:
+        if self.posterior == "exact" and self.arms != 1:
+            raise ValueError(
+                f"posterior: exact integrates one Maxwell arm, not {self.arms}; use posterior: "
+                "mcmc (or auto) for several arms"
+            )
+        if self.method == "mcmc" and (self.walkers % 2 or self.walkers < 2 * self.dimension):
             raise ValueError(
                 f"walkers={self.walkers}: emcee's stretch move needs an even number of walkers, "
                 f"at least twice the {self.dimension} sampled coordinates; use "
@@ -129,9 +139,53 @@ class SLSSpec(FamilySpec):
         reads = dict(zip(fitted.columns.names, fitted.columns.reads, strict=True))
         return sign_findings(self.model_names()[0], table, reads, data.rig.position)
 
+    @property
+    def method(self) -> str:
+        """ "exact" (one arm: the linear parameters integrated out) or "mcmc" (emcee)."""
+        if self.posterior == "auto":
+            return "exact" if self.arms == 1 else "mcmc"
+        return self.posterior
+
+    def _exact(self, model, data, start, seed: int):
+        from hmid.models.sls import SLSModel
+        from hmid.models.sls.collapsed import exact_posterior
+
+        space = SLSModel(self.spring, self.arms, model.noise, "identity").space
+        physical = model.space.to_physical(start.theta)
+        phi0 = float(physical["phi"]) if model.noise == "ar1" else 0.0
+        return exact_posterior(
+            space, data, float(physical["tau"]), phi0=phi0, draws=self.draws, seed=seed
+        )
+
+    def _mcmc(self, model, data, start, noise: str, context: FitContext):
+        from hmid.models.sls import SamplerConfig, run_sampler
+
+        # only what defines the chain: budgets and post-processing may change and still resume
+        chain_fields = {"spring", "arms", "noise", "memory_warmup_s", "stride", "walkers"}
+        digest = hashlib.sha256(self.model_dump_json(include=chain_fields).encode())
+        for array in (data.t, data.x, data.x3, data.P, data.F, data.use):
+            digest.update(np.asarray(array).tobytes())
+        fingerprint = f"{digest.hexdigest()[:16]}-{noise}-{context.seed}"
+        context.workdir.mkdir(parents=True, exist_ok=True)
+        chain_path = context.workdir / f"sls-chain-{fingerprint}.h5"
+        return run_sampler(
+            model.log_prob_fn(data),
+            start.theta,
+            SamplerConfig(
+                n_walkers=self.walkers,
+                max_steps=self.max_steps,
+                max_seconds=self.max_seconds,
+                seed=context.seed,
+            ),
+            backend_path=chain_path,
+            names=model.space.names,
+            fingerprint=fingerprint,
+            fresh=context.force,  # --force: a fresh chain, not a continued one
+        )
+
     def fit(self, train: FitData, context: FitContext) -> list[Fitted]:
         from hmid.models.base import fit_statistics
-        from hmid.models.sls import SamplerConfig, SLSModel, initial_fit, run_sampler, sls_data
+        from hmid.models.sls import SLSModel, initial_fit, sls_data
         from hmid.models.sls.diagnostics import lag1_autocorrelation, residuals_correlated
 
         findings = self._sign_check(train)
@@ -146,28 +200,11 @@ class SLSSpec(FamilySpec):
         if noise == "ar1":
             model = SLSModel(self.spring, self.arms, "ar1")
             start = initial_fit(data, model)
-        # only what defines the chain: budgets and post-processing may change and still resume
-        chain_fields = {"spring", "arms", "noise", "memory_warmup_s", "stride", "walkers"}
-        digest = hashlib.sha256(self.model_dump_json(include=chain_fields).encode())
-        for array in (data.t, data.x, data.x3, data.P, data.F, data.use):
-            digest.update(np.asarray(array).tobytes())
-        fingerprint = f"{digest.hexdigest()[:16]}-{noise}-{context.seed}"
-        context.workdir.mkdir(parents=True, exist_ok=True)
-        chain_path = context.workdir / f"sls-chain-{fingerprint}.h5"
-        result = run_sampler(
-            model.log_prob_fn(data),
-            start.theta,
-            SamplerConfig(
-                n_walkers=self.walkers,
-                max_steps=self.max_steps,
-                max_seconds=self.max_seconds,
-                seed=context.seed,
-            ),
-            backend_path=chain_path,
-            names=model.space.names,
-            fingerprint=fingerprint,
-            fresh=context.force,  # --force: a fresh chain, not a continued one
-        )
+        grid = None
+        if self.method == "exact":
+            result, grid = self._exact(model, data, start, context.seed)
+        else:
+            result = self._mcmc(model, data, start, noise, context)
         fitted = SLSFitted(
             self,
             noise,
@@ -178,7 +215,10 @@ class SLSSpec(FamilySpec):
             context.seed,
             (*start.notes, *(f.message() for f in findings)),
             train.rig,
+            self.method,
+            grid,
         )
+        model = fitted.model  # the coordinates the draws are in
         prediction = model.predict(fitted.theta_median, data)[use]
         n_mean = model.space.dim - (2 if noise == "ar1" else 1)  # sigma (and phi) are noise
         stats = fit_statistics(np.asarray(data.F)[use], prediction, n_mean)
@@ -215,6 +255,8 @@ class SLSFitted(FittedModel):
     seed: int
     start_notes: tuple[str, ...]
     rig: RigSection
+    method: str = "mcmc"  # "exact": independent draws from the collapsed posterior
+    grid: Any = None  # hmid.models.sls.collapsed.Grid of the exact posterior
 
     def structure(self) -> Structure:
         """The SLS terms at the posterior median's relaxation times."""
@@ -228,7 +270,8 @@ class SLSFitted(FittedModel):
     def model(self):
         from hmid.models.sls import SLSModel
 
-        return SLSModel(self.spec.spring, self.spec.arms, self.noise)
+        linear = "identity" if self.method == "exact" else "log"
+        return SLSModel(self.spec.spring, self.spec.arms, self.noise, linear)
 
     @property
     def theta_median(self) -> np.ndarray:
@@ -249,9 +292,22 @@ class SLSFitted(FittedModel):
 
     def notes(self) -> tuple[str, ...]:
         r = self.result
+        if self.method == "exact":
+            axes = "tau and phi" if self.noise == "ar1" else "tau"
+            how = (
+                f"exact posterior: A_eff, F0, k1{', k3' if self.spec.spring == 'cubic' else ''}, "
+                f"k2 and sigma integrated out (flat prior on the force parameters, 1/sigma on "
+                f"sigma), {axes} on a grid of {self.grid.log_density.size} points; "
+                f"{r.n_steps} independent draws ({r.wall_s:.2f} s)"
+            )
+        else:
+            how = (
+                f"posterior from emcee ({r.n_walkers} walkers, {r.n_steps} steps, stopped: "
+                f"{r.stop_reason}); min ESS {np.min(r.ess):.0f}, acceptance "
+                f"{r.acceptance_mean:.2f}"
+            )
         notes = [
-            f"posterior from emcee ({r.n_walkers} walkers, {r.n_steps} steps, stopped: "
-            f"{r.stop_reason}); min ESS {np.min(r.ess):.0f}, acceptance {r.acceptance_mean:.2f}",
+            how,
             f"noise model {self.noise}: lag-1 autocorrelation of the start fit's residuals "
             f"{self.lag1_rho:.2f} (Ljung-Box p = {self.lag1_p:.2g})",
         ]
@@ -260,11 +316,26 @@ class SLSFitted(FittedModel):
                 "residuals are clearly correlated, so these i.i.d.-likelihood intervals are too "
                 "narrow (optimistic); noise: ar1 widens them but can bias the point estimate"
             )
-        if not r.converged:
+        if self.method != "exact" and not r.converged:
             notes.append("the chain did not reach 50 autocorrelation times: intervals are rough")
+        notes += self._unsettled_signs()
         if r.reused_steps:
             notes.append(self.reused())
         return (*notes, *self.start_notes)
+
+    def _unsettled_signs(self) -> list[str]:
+        """The flat prior lets the data decide a force parameter's sign: say where they don't."""
+        if self.method != "exact":
+            return []
+        physical = self._physical(self.result.chain)
+        out = []
+        for name in ("A_eff", "k1", "k3", "k2"):
+            if name in physical and (share := float(np.mean(physical[name] <= 0))) > 0.01:
+                out.append(
+                    f"{name}: {100 * share:.0f} % of the posterior lies at or below 0; the data "
+                    "do not establish its physical (positive) sign"
+                )
+        return out
 
     def reused(self) -> str | None:
         """Said when the chain was read back: the numbers are a fresh run's, the time is not."""
@@ -312,8 +383,27 @@ class SLSFitted(FittedModel):
         from hmid.models.sls.diagnostics import corner_plot, trace_plot
 
         r = self.result
-        trace = trace_plot(r, figures_dir / f"{prefix}_trace.png")
         corner = corner_plot(r, figures_dir / f"{prefix}_corner.png")
+        if self.method == "exact":
+            from hmid.models.sls.diagnostics import grid_plot
+
+            marginal = grid_plot(self.grid, figures_dir / f"{prefix}_grid.png")
+            text = (
+                f"Exact posterior, {r.n_steps} independent draws in {r.wall_s:.2f} s: the force "
+                "parameters and sigma integrated out analytically (flat prior on A_eff, F0, k1, "
+                "k3, k2, so their signs come from the data; p(sigma) ∝ 1/sigma), the relaxation "
+                "time (and phi) on a grid spanning 8 posterior standard deviations. Intervals "
+                f"are {100 * self.spec.confidence:.0f} % equal-tailed posterior intervals."
+            )
+            return Extras(
+                text=text,
+                tables=[],
+                figures=[
+                    (marginal, "Marginal posterior on the grid"),
+                    (corner, "Posterior corner plot (draws)"),
+                ],
+            )
+        trace = trace_plot(r, figures_dir / f"{prefix}_trace.png")
         diag = pd.DataFrame(
             {
                 "parameter": list(r.names),

@@ -55,7 +55,7 @@ class SamplerResult:
 
     @property
     def converged(self) -> bool:
-        return self.stop_reason == "converged"
+        return self.stop_reason in ("converged", "exact")
 
     def metrics(self) -> dict[str, Any]:
         """Scalar diagnostics for a run manifest."""

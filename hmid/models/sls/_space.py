@@ -66,8 +66,14 @@ class SLSSpace:
     spring: Literal["linear", "cubic"] = "cubic"
     arms: int = 1
     noise: Literal["iid", "ar1"] = "iid"
+    #: "log": the positive force parameters sampled on the log scale (emcee); "identity": as
+    #: they are, the coordinates of the exact posterior (:mod:`.collapsed`), whose flat prior
+    #: lets the data, not the coordinates, decide their signs
+    linear: Literal["log", "identity"] = "log"
 
     def __post_init__(self) -> None:
+        if self.linear not in ("log", "identity"):
+            raise ConfigError(f"SLS linear={self.linear!r}: use 'log' or 'identity'")
         if self.spring not in ("linear", "cubic"):
             raise ConfigError(f"SLS spring={self.spring!r}: use 'linear' or 'cubic'")
         if isinstance(self.arms, bool) or not isinstance(self.arms, int | np.integer):
@@ -92,11 +98,18 @@ class SLSSpace:
             names += [k2, tau]
         return (*names, "sigma", *(("phi",) if self.noise == "ar1" else ()))
 
+    def is_log(self, name: str) -> bool:
+        """Whether physical parameter ``name`` has a log coordinate."""
+        if name in ("F0", "phi"):
+            return False
+        return name.startswith(("tau", "sigma")) or self.linear == "log"
+
     @property
     def names(self) -> tuple[str, ...]:
-        """theta's coordinate names: ``log_<p>`` for positive p, ``F0``, ``atanh_phi``."""
+        """theta's coordinate names: ``log_<p>`` for log coordinates, ``atanh_phi``, else the
+        physical name."""
         return tuple(
-            p if p == "F0" else "atanh_phi" if p == "phi" else f"log_{p}"
+            "atanh_phi" if p == "phi" else f"log_{p}" if self.is_log(p) else p
             for p in self.physical_names
         )
 
@@ -126,7 +139,7 @@ class SLSSpace:
         out = {}
         for i, p in enumerate(self.physical_names):
             value = theta[..., i]
-            out[p] = value if p == "F0" else xp.tanh(value) if p == "phi" else xp.exp(value)
+            out[p] = xp.tanh(value) if p == "phi" else xp.exp(value) if self.is_log(p) else value
         return out
 
     def from_physical(self, physical) -> np.ndarray | jax.Array:
@@ -140,8 +153,8 @@ class SLSSpace:
         columns = []
         for p in self.physical_names:
             value = xp.asarray(physical[p], dtype=float)
-            columns.append(value if p == "F0" else xp.arctanh(value) if p == "phi" else
-                           xp.log(value))  # fmt: skip
+            columns.append(xp.arctanh(value) if p == "phi" else xp.log(value) if self.is_log(p)
+                           else value)  # fmt: skip
         return xp.stack(columns, axis=-1)
 
     def mechanics(self, theta) -> Mechanics:
@@ -173,9 +186,11 @@ class SLSSpace:
         return self.from_physical({p: centre[p] for p in self.physical_names})
 
     def gaussian_prior(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Mask, mean and sd of the coordinates with a Gaussian prior (all but atanh phi)."""
+        """Mask, mean and sd of the coordinates with a Gaussian prior (all but atanh phi, and
+        the force parameters' identity coordinates, whose prior is flat)."""
         mean = self.prior_centre()
-        gaussian = np.array([p != "phi" for p in self.physical_names])
+        gaussian = np.array([self.is_log(p) or (p == "F0" and self.linear == "log")
+                             for p in self.physical_names])  # fmt: skip
         sd = np.where(np.array([p == "F0" for p in self.physical_names]), F0_SD, PRIOR_SD)
         return gaussian, mean, sd
 

@@ -25,7 +25,13 @@ from hmid.errors import ConfigError, SignalError
 from hmid.files import atomic_path
 from hmid.models.sls.sampler import SamplerResult
 
-__all__ = ["corner_plot", "lag1_autocorrelation", "residuals_correlated", "trace_plot"]
+__all__ = [
+    "corner_plot",
+    "grid_plot",
+    "lag1_autocorrelation",
+    "residuals_correlated",
+    "trace_plot",
+]
 
 _MAX_POINTS = 4000  # steps drawn per walker in a trace plot (longer chains are strided)
 
@@ -141,6 +147,22 @@ def residuals_correlated(
         raise ConfigError(f"residuals_correlated: alpha must lie in (0, 1), got {alpha!r}")
     rho, p_value = lag1_autocorrelation(residual)
     return p_value < alpha and abs(rho) >= min_abs_rho
+
+
+def grid_plot(grid, path: str | Path) -> Path:
+    """The exact posterior's marginal densities on its grid: tau (and phi for AR(1) noise)."""
+    axes = ["tau"] + (["phi"] if len(grid.atanh_phi) > 1 else [])
+    fig = Figure(figsize=(4.5 * len(axes), 3.2))
+    for i, axis in enumerate(axes):
+        ax = fig.add_subplot(1, len(axes), i + 1)
+        value, density = grid.marginal(axis)
+        ax.plot(value, density, color="C0")
+        per = "ln tau" if axis == "tau" else "atanh phi"
+        ax.set(xlabel="tau [s]" if axis == "tau" else "phi", ylabel=f"density (per unit {per})")
+        ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, 3), useOffset=False)
+    fig.suptitle("exact posterior on its grid", fontsize=10)
+    fig.tight_layout()
+    return _save(fig, path)
 
 
 def _save(fig: Figure, path: str | Path) -> Path:

@@ -62,13 +62,14 @@ class SLSModel:
     spring: Literal["linear", "cubic"] = "cubic"
     arms: int = 1
     noise: Literal["iid", "ar1"] = "iid"
+    linear: Literal["log", "identity"] = "log"  # coordinates of the force parameters (SLSSpace)
 
     def __post_init__(self) -> None:
         _ = self.space  # validates the configuration
 
     @cached_property
     def space(self) -> SLSSpace:
-        return SLSSpace(self.spring, self.arms, self.noise)
+        return SLSSpace(self.spring, self.arms, self.noise, self.linear)
 
     # -- helpers --------------------------------------------------------------------------------
     def _theta(self, theta) -> tuple[jax.Array, bool]:

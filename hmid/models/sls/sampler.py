@@ -67,7 +67,7 @@ __all__ = [
     "run_sampler",
 ]
 
-STOP_REASONS = ("converged", "step budget", "time budget")
+STOP_REASONS = ("converged", "step budget", "time budget", "exact")
 BALL_REDRAWS = 3  # non-finite walkers of the initial ball are re-drawn this often before failing
 _FORMAT = 2  # 2: a digest over every stored row
 
