@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -27,38 +28,64 @@ def _held_out_time(frame: pd.DataFrame) -> tuple[np.ndarray, list[tuple[float, s
     return t_axis, marks
 
 
+#: points per time-series panel: a figure 11 inches wide shows no more (min and max per bin
+#: keep every peak, so a decimated trace looks like the full one)
+PANEL_POINTS = 4000
+
+
+def envelope(values: np.ndarray, points: int = PANEL_POINTS) -> np.ndarray:
+    """Sorted row indices that keep the minimum and maximum of ``values`` in each of
+    ``points // 2`` consecutive bins (all rows when there are fewer)."""
+    n = len(values)
+    if n <= points:
+        return np.arange(n)
+    bins = points // 2
+    edges = np.linspace(0, n, bins + 1).astype(int)
+    out = []
+    for lo, hi in itertools.pairwise(edges):
+        chunk = values[lo:hi]
+        out += [lo + int(np.argmin(chunk)), lo + int(np.argmax(chunk))]
+    return np.unique(out)
+
+
 def plot_model(
     predictions: pd.DataFrame, model: str, path: Path, label: str = "F_m", unit: str = "N"
 ) -> None:
     """Four panels for one model on held-out data: the measured quantity it explains (``label``,
     known terms subtracted) over time (cf. thesis Fig. 4.4), residual over time, residual
-    histogram, predicted vs measured."""
+    histogram, predicted vs measured. Time series are drawn from their min-max envelope
+    (:func:`envelope`); the histogram uses every row."""
     frame = predictions.reset_index(drop=True)
     y, y_hat = frame["target"].to_numpy(), frame[model].to_numpy()
     residual = y - y_hat
     t_axis, marks = _held_out_time(frame)
+    keep = np.union1d(envelope(y), envelope(y_hat))
     fig = _figure(figsize=(11, 6.5))
     grid = fig.add_gridspec(2, 3)
     ax = fig.add_subplot(grid[0, :])
-    ax.plot(t_axis, y, ".", ms=1.5, color="0.55", label=f"measured {label}")
+    ax.plot(t_axis[keep], y[keep], ".", ms=1.5, color="0.55", label=f"measured {label}")
     if f"{model} lower" in frame:
-        ax.fill_between(t_axis, frame[f"{model} lower"], frame[f"{model} upper"], color="C0",
-                        alpha=0.25, lw=0, label="posterior predictive band")  # fmt: skip
-    ax.plot(t_axis, y_hat, "-", lw=0.8, color="C0", label=f"{model} (one-step)")
+        band = np.union1d(envelope(frame[f"{model} lower"].to_numpy()),
+                          envelope(frame[f"{model} upper"].to_numpy()))  # fmt: skip
+        ax.fill_between(t_axis[band], frame[f"{model} lower"].to_numpy()[band],
+                        frame[f"{model} upper"].to_numpy()[band], color="C0", alpha=0.25, lw=0,
+                        label="posterior predictive band")  # fmt: skip
+    ax.plot(t_axis[keep], y_hat[keep], "-", lw=0.8, color="C0", label=f"{model} (one-step)")
     for start, name in marks:
         ax.axvline(start, color="0.8", lw=0.8)
         ax.text(start, ax.get_ylim()[1], f" {name}", va="top", fontsize=7, color="0.4")
     ax.set(xlabel="held-out time, logs end to end [s]", ylabel=f"{label} [{unit}]")
     ax.legend(loc="lower right", fontsize=8)
     ax = fig.add_subplot(grid[1, 0])
-    ax.plot(t_axis, residual, ".", ms=1, color="C3")
+    rows = envelope(residual)
+    ax.plot(t_axis[rows], residual[rows], ".", ms=1, color="C3")
     ax.axhline(0, color="k", lw=0.6)
     ax.set(xlabel="held-out time [s]", ylabel=f"residual [{unit}]")
     ax = fig.add_subplot(grid[1, 1])
     ax.hist(residual, bins=60, color="C3", alpha=0.8)
     ax.set(xlabel=f"residual [{unit}]", ylabel="samples")
     ax = fig.add_subplot(grid[1, 2])
-    ax.plot(y, y_hat, ".", ms=1, alpha=0.5)
+    ax.plot(y[keep], y_hat[keep], ".", ms=1, alpha=0.5)  # the extremes and a spread between
     lims = [min(y.min(), y_hat.min()), max(y.max(), y_hat.max())]
     ax.plot(lims, lims, "k-", lw=0.6)
     ax.set(xlabel=f"measured [{unit}]", ylabel=f"predicted [{unit}]")

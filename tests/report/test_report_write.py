@@ -27,3 +27,20 @@ def test_failure_writes_nothing(tmp_path: Path) -> None:
     with pytest.raises(ReportError, match=r"nope\.png"):
         write_report(report, tmp_path)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_decimated_trace_keeps_every_peak():
+    """Figures draw ~4,000 points per panel; the min-max envelope keeps each bin's extremes,
+    so a one-sample spike anywhere in a long series is still drawn."""
+    import numpy as np
+
+    from hmid.plots import envelope
+
+    values = np.sin(np.linspace(0, 60, 200_000))
+    values[123_457] = 9.0
+    values[7] = -9.0
+    keep = envelope(values, 4000)
+    assert len(keep) <= 4000 and np.all(np.diff(keep) > 0)
+    assert {7, 123_457} <= set(keep.tolist())
+    assert values[keep].max() == 9.0 and values[keep].min() == -9.0
+    np.testing.assert_array_equal(envelope(values[:100]), np.arange(100))
