@@ -113,6 +113,8 @@ def bench_read_log(rows):
 SCRIPTS = (
     ("SLS likelihood", "bench_sls_likelihood.py", []),
     ("SLS stage speed and calibration", "bench_sls_calibration.py", []),
+    ("Polynomial interval calibration", "bench_calibration_polynomial.py", []),
+    ("Memory and disk at 1 M and 10 M rows", "bench_memory.py", ["--rows", "1000000", "10000000"]),
     ("SINDy fit", "bench_sindy.py", []),
     ("Cost against log length", "bench_scaling.py", []),
     ("Sweeps: 1 vs 2 workers", "bench_sweep.py", []),

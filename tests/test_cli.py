@@ -188,7 +188,7 @@ def test_a_cache_that_cannot_be_written_is_one_line_and_the_run_is_marked_failed
     results = tmp_path / "results"
     assert main(["run", str(_demo_copy(tmp_path)), "--results", str(results)]) == 2
     line = _one_line(capsys.readouterr().err)
-    assert "/.cache/load-" in line and fix in line
+    assert "/.cache/friction-" in line and fix in line  # the first stage that is stored
     (manifest,) = results.glob("demo/*/manifest.json")
     record = json.loads(manifest.read_text())
     assert record["status"] == "failed" and record["error"]

@@ -85,35 +85,30 @@ class Columns:
 
     @classmethod
     def combine(cls, n: int, parts, rows: np.ndarray, memo: dict | None = None) -> Columns:
-        """The columns of ``parts`` (triples of a key, Columns, and whether they refine the
-        earlier ones), each entering once: a parameter already present by name, or a column
-        equal to one present (a correction two terms share), is not added again; a refining
-        part drops the earlier columns its span holds (see :func:`_spanned`; remembered in
-        ``memo`` by the parts' keys). One concatenation at the end: profiling assembles designs
-        thousands of times."""
-        memo = {} if memo is None else memo
-        kept: list[list] = []  # per part: [key, Columns, indices kept]
-        for key, columns, refines in parts:
-            if refines and columns.width:
-                for entry in kept:
-                    spanned = memo.get(("spanned", entry[0], key))
-                    if spanned is None:
-                        basis = columns.values[rows]
-                        spanned = memo[("spanned", entry[0], key)] = {
-                            j for j in range(entry[1].width)
-                            if _spanned(entry[1].values[rows, j], basis)
-                        }  # fmt: skip
-                    entry[2] = [j for j in entry[2] if j not in spanned]
-            names = {entry[1].names[j] for entry in kept for j in entry[2]}
-            present = [entry[1].values[:, j] for entry in kept for j in entry[2]]
-            keep = [
-                i for i, name in enumerate(columns.names)
-                if name not in names and not any(_equal(columns.values[:, i], p) for p in present)
-            ]  # fmt: skip
-            kept.append([key, columns, keep])
-        chosen = [entry[1].select(entry[2]) for entry in kept if entry[2]]
+        """The columns of :func:`plan` in one array."""
+        return plan(n, parts, rows, memo).assemble()
+
+
+@dataclass(frozen=True)
+class Plan:
+    """Which columns of which parts a design holds, before any array is assembled: profiling
+    fits thousands of designs from the same few parts, and their Gram blocks are cached."""
+
+    n: int
+    parts: tuple[tuple[object, Columns, tuple[int, ...]], ...]  # (key, columns, kept indices)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(c.names[j] for _, c, keep in self.parts for j in keep)
+
+    @property
+    def width(self) -> int:
+        return sum(len(keep) for _, _, keep in self.parts)
+
+    def assemble(self) -> Columns:
+        chosen = [c.select(list(keep)) for _, c, keep in self.parts]
         if not chosen:
-            return cls.empty(n)
+            return Columns.empty(self.n)
         return Columns(
             tuple(name for c in chosen for name in c.names),
             tuple(unit for c in chosen for unit in c.units),
@@ -121,6 +116,41 @@ class Columns:
             tuple(p for c in chosen for p in c.positive),
             tuple(r for c in chosen for r in c.reads),
         )
+
+
+def plan(n: int, parts, rows: np.ndarray, memo: dict | None = None) -> Plan:
+    """The columns of ``parts`` (triples of a key, Columns, and whether they refine the earlier
+    ones), each entering once: a parameter already present by name, or a column equal to one
+    present (a correction two terms share), is not added again; a refining part drops the
+    earlier columns its span holds (see :func:`_spanned`). Both decisions are remembered in
+    ``memo`` by the parts' keys."""
+    memo = {} if memo is None else memo
+    kept: list[list] = []  # per part: [key, Columns, indices kept]
+    for key, columns, refines in parts:
+        if refines and columns.width:
+            for entry in kept:
+                spanned = memo.get(("spanned", entry[0], key))
+                if spanned is None:
+                    basis = columns.values[rows]
+                    spanned = memo[("spanned", entry[0], key)] = {
+                        j for j in range(entry[1].width)
+                        if _spanned(entry[1].values[rows, j], basis)
+                    }  # fmt: skip
+                entry[2] = [j for j in entry[2] if j not in spanned]
+        names = {entry[1].names[j] for entry in kept for j in entry[2]}
+        keep = []
+        for i, name in enumerate(columns.names):
+            if name in names:
+                continue
+            equal = memo.get(("equal", key, i, tuple((e[0], tuple(e[2])) for e in kept)))
+            if equal is None:
+                equal = any(_equal(columns.values[:, i], entry[1].values[:, j])
+                            for entry in kept for j in entry[2])  # fmt: skip
+                memo[("equal", key, i, tuple((e[0], tuple(e[2])) for e in kept))] = equal
+            if not equal:
+                keep.append(i)
+        kept.append([key, columns, keep])
+    return Plan(n, tuple((key, c, tuple(keep)) for key, c, keep in kept if keep))
 
 
 def _equal(a: np.ndarray, b: np.ndarray) -> bool:
@@ -168,5 +198,55 @@ class LeastSquares:
             sse = float(np.sum((target - Xs @ coef_s) ** 2))
         return cls(coef_s / scale, max(sse, 0.0), int(rows.sum()))
 
+    @classmethod
+    def from_plan(cls, plan: Plan, y: np.ndarray, rows: np.ndarray, memo: dict) -> LeastSquares:
+        """:meth:`fit` of the plan's design from Gram blocks of its parts, each computed once
+        per pair of parts and set of rows (``memo``): no design is assembled."""
+        n_rows, rows_key, y_key = int(rows.sum()), _digest(rows), _digest(y)
+        target = memo.get(("target", y_key, rows_key))
+        if target is None:
+            target = memo[("target", y_key, rows_key)] = (y[rows], float(y[rows] @ y[rows]))
+        y_rows, yy = target
+        if plan.width == 0:
+            return cls(np.empty(0), yy, n_rows)
+        blocks = []
+        for i, (key_i, c_i, keep_i) in enumerate(plan.parts):
+            row = []
+            for j, (key_j, c_j, keep_j) in enumerate(plan.parts):
+                a, b = (key_i, key_j) if i <= j else (key_j, key_i)
+                gram = memo.get(("gram", a, b, rows_key))
+                if gram is None:
+                    first, second = (c_i, c_j) if i <= j else (c_j, c_i)
+                    gram = memo[("gram", a, b, rows_key)] = (
+                        first.values[rows].T @ second.values[rows]
+                    )
+                gram = gram if i <= j else gram.T
+                row.append(gram[np.ix_(keep_i, keep_j)])
+            blocks.append(row)
+        gram = np.block(blocks)
+        moment = []
+        for key, c, keep in plan.parts:
+            m = memo.get(("moment", key, y_key, rows_key))
+            if m is None:
+                m = memo[("moment", key, y_key, rows_key)] = c.values[rows].T @ y_rows
+            moment.append(m[list(keep)])
+        moment = np.concatenate(moment)
+        scale = np.sqrt(np.diag(gram)).copy()
+        scale[scale == 0] = 1.0
+        gram_s, moment_s = gram / np.outer(scale, scale), moment / scale
+        coef_s = np.linalg.pinv(gram_s, rcond=1e-12, hermitian=True) @ moment_s
+        sse = float(yy - 2 * coef_s @ moment_s + coef_s @ gram_s @ coef_s)
+        if sse < 1e-9 * yy:  # cancellation: from the design itself
+            return cls.fit(plan.assemble(), y, rows)
+        return cls(coef_s / scale, max(sse, 0.0), n_rows)
+
     def predict(self, columns: Columns) -> np.ndarray:
         return columns.values @ self.coef
+
+
+def _digest(values: np.ndarray) -> bytes:
+    """A key for a row mask or a target in the memo (arrays are rebuilt on every access)."""
+    import hashlib
+
+    data = np.packbits(values) if values.dtype == bool else np.ascontiguousarray(values)
+    return hashlib.blake2b(data.tobytes(), digest_size=16).digest()

@@ -15,7 +15,7 @@ from functools import cached_property
 import numpy as np
 import pandas as pd
 
-from hmid.balance.columns import Columns, LeastSquares
+from hmid.balance.columns import Columns, LeastSquares, Plan, plan
 from hmid.balance.signals import Signals
 from hmid.balance.statistics import inference
 from hmid.balance.terms import Term
@@ -75,17 +75,21 @@ class Structure:
         return signals
 
     def columns(self, signals: Signals) -> Columns:
+        return self.plan(signals).assemble()
+
+    def plan(self, signals: Signals) -> Plan:
+        """The design's parts, not yet assembled (:class:`~hmid.balance.columns.Plan`)."""
         seen = self.seen(signals)
         parts = []
         for placed in self.terms:
-            key = ("columns", placed.term, placed.value)
+            key = ("columns", placed.term, placed.value, id(seen))
             if key not in seen.cache:
                 seen.cache[key] = placed.term.columns(seen, placed.value)
             parts.append((key, seen.cache[key], placed.term.refines))
         # whether a column is in another's span shows on any few thousand rows
         rows = np.flatnonzero(signals.usable)
         rows = rows[:: max(1, len(rows) // 4000)]
-        return Columns.combine(len(signals), parts, rows, seen.cache)
+        return plan(len(signals), parts, rows, signals.cache)
 
 
 @dataclass(frozen=True)
@@ -93,10 +97,15 @@ class StructureFit:
     """A structure fitted to ``target`` on ``rows``."""
 
     structure: Structure
-    columns: Columns
+    plan: Plan = field(repr=False)
     fit: LeastSquares
     target: np.ndarray = field(repr=False)
     rows: np.ndarray = field(repr=False)
+
+    @cached_property
+    def columns(self) -> Columns:
+        """The design, assembled when first asked for (profiling only needs the fit)."""
+        return self.plan.assemble()
 
     @cached_property
     def prediction(self) -> np.ndarray:
@@ -109,7 +118,7 @@ class StructureFit:
 
     @property
     def params(self) -> dict[str, float]:
-        return dict(zip(self.columns.names, self.fit.coef, strict=True))
+        return dict(zip(self.plan.names, self.fit.coef, strict=True))
 
     @property
     def sse(self) -> float:
@@ -123,9 +132,10 @@ def fit(structure: Structure, signals: Signals, rows: np.ndarray | None = None) 
     """Least squares of ``signals.target`` on the structure's columns over ``rows`` (default
     the training rows)."""
     rows = signals.train if rows is None else rows
-    columns = structure.columns(signals)
-    return StructureFit(structure, columns, LeastSquares.fit(columns, signals.target, rows),
-                        signals.target, rows)  # fmt: skip
+    design = structure.plan(signals)
+    target = signals.target
+    least = LeastSquares.from_plan(design, target, rows, signals.cache)
+    return StructureFit(structure, design, least, target, rows)
 
 
 def scan(best: StructureFit, index: int, signals: Signals, rows=None) -> tuple[StructureFit, list]:

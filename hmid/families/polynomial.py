@@ -38,7 +38,7 @@ class CustomTerms(BaseModel):
 
 class PolynomialSpec(FamilySpec):
     """``variants``: named term sets (the thesis's four by default), plus ``custom`` term sets;
-    every one fitted by OLS on the same training rows."""
+    every one fitted by OLS on the same training rows, intervals by the ``errors`` method."""
 
     family: Literal["polynomial"] = "polynomial"
     variants: tuple[Literal["quadratic_xv", "cubic_xv", "quadratic_xvP", "cubic_xvP"], ...] = (
@@ -47,8 +47,10 @@ class PolynomialSpec(FamilySpec):
     custom: tuple[CustomTerms, ...] = ()
     confidence: Annotated[float, Field(gt=0.5, lt=1)] = 0.95
     scale: bool = True
-    # "hac": Newey-West errors. OLS intervals carry a Durbin-Watson warning instead.
-    errors: Literal["ols", "hac"] = "ols"
+    # Interval method: "autocov" (OLS with the residual's autocovariance, calibrated on the
+    # pipeline's correlated residuals by benchmarks/bench_calibration_polynomial.py), "ols"
+    # (independent errors) or "hac" (Newey-West); see hmid.models.polynomial.
+    errors: Literal["autocov", "ols", "hac"] = "autocov"
 
     def _term_sets(self):
         from hmid.models.terms import variant_terms
@@ -91,7 +93,7 @@ class PolynomialSpec(FamilySpec):
                     fit_summary=model.summary_.to_dict(),
                     coefficients=model.coefficient_table(),
                     equation=model.equation(),
-                    notes=tuple(model.summary_.warnings),
+                    notes=(model.interval_method(), *model.summary_.warnings),
                 )
             )
         return fitted

@@ -65,5 +65,5 @@ def test_a_column_two_terms_share_enters_once_and_columns_are_cached():
     columns = structure.columns(signals)
     assert columns.names == ("Fc",)
     assert structure.columns(signals).values is not None
-    assert ("columns", a, None) in signals.cache
+    assert ("columns", a, None, id(signals)) in signals.cache
     assert fit(structure, signals).columns.width == 1
