@@ -199,16 +199,27 @@ class LeastSquares:
         return cls(coef_s / scale, max(sse, 0.0), int(rows.sum()))
 
     @classmethod
-    def from_plan(cls, plan: Plan, y: np.ndarray, rows: np.ndarray, memo: dict) -> LeastSquares:
+    def from_plan(
+        cls, plan: Plan, y: np.ndarray, rows: np.ndarray, memo: dict, y_key=None
+    ) -> LeastSquares:
         """:meth:`fit` of the plan's design from Gram blocks of its parts, each computed once
-        per pair of parts and set of rows (``memo``): no design is assembled."""
-        n_rows, rows_key, y_key = int(rows.sum()), _digest(rows), _digest(y)
+        per pair of parts and set of rows (``memo``; ``y_key`` names ``y`` there, default its
+        digest): no design is assembled."""
+        n_rows, rows_key = int(rows.sum()), _digest(rows)
+        y_key = _digest(y) if y_key is None else y_key
         target = memo.get(("target", y_key, rows_key))
         if target is None:
             target = memo[("target", y_key, rows_key)] = (y[rows], float(y[rows] @ y[rows]))
         y_rows, yy = target
         if plan.width == 0:
             return cls(np.empty(0), yy, n_rows)
+
+        def on_rows(key, columns):
+            found = memo.get(("on rows", key, rows_key))
+            if found is None:
+                found = memo[("on rows", key, rows_key)] = columns.values[rows]
+            return found
+
         blocks = []
         for i, (key_i, c_i, keep_i) in enumerate(plan.parts):
             row = []
@@ -216,19 +227,19 @@ class LeastSquares:
                 a, b = (key_i, key_j) if i <= j else (key_j, key_i)
                 gram = memo.get(("gram", a, b, rows_key))
                 if gram is None:
-                    first, second = (c_i, c_j) if i <= j else (c_j, c_i)
-                    gram = memo[("gram", a, b, rows_key)] = (
-                        first.values[rows].T @ second.values[rows]
-                    )
+                    first, second = ((key_i, c_i), (key_j, c_j))[:: 1 if i <= j else -1]
+                    gram = on_rows(*first).T @ on_rows(*second)
+                    memo[("gram", a, b, rows_key)] = gram
                 gram = gram if i <= j else gram.T
-                row.append(gram[np.ix_(keep_i, keep_j)])
+                whole = len(keep_i) == gram.shape[0] and len(keep_j) == gram.shape[1]
+                row.append(gram if whole else gram[np.ix_(keep_i, keep_j)])
             blocks.append(row)
         gram = np.block(blocks)
         moment = []
         for key, c, keep in plan.parts:
             m = memo.get(("moment", key, y_key, rows_key))
             if m is None:
-                m = memo[("moment", key, y_key, rows_key)] = c.values[rows].T @ y_rows
+                m = memo[("moment", key, y_key, rows_key)] = on_rows(key, c).T @ y_rows
             moment.append(m[list(keep)])
         moment = np.concatenate(moment)
         scale = np.sqrt(np.diag(gram)).copy()

@@ -11,18 +11,19 @@ import numpy as np
 from hmid.balance.signals import Signals
 from hmid.balance.terms import Hyper
 
-_ARMS: OrderedDict[tuple, np.ndarray] = OrderedDict()
+_ARMS: OrderedDict[tuple, dict[float, np.ndarray]] = OrderedDict()
 _ARMS_KEPT = 8
+_BATCH = 4  # taus scanned at once: one compiled shape, and all that an interpolation needs
 
 
-def _arms_key(signals: Signals, channel: str, grid: tuple[float, ...]) -> tuple:
+def _arms_key(signals: Signals, channel: str) -> tuple:
     found = signals.cache.get(("digest", channel))
     if found is None:  # hashing the rows costs more than a cached lookup: once per signals
         digest = hashlib.sha1(signals["t"].tobytes())
         digest.update(signals[channel].tobytes())
         digest.update(signals["segment"].tobytes())
         found = signals.cache[("digest", channel)] = digest.hexdigest()
-    return (found, grid)
+    return (found, channel)
 
 
 @cache
@@ -37,30 +38,42 @@ def _compiled_response():
 
 
 def memory_arms(signals: Signals, channel: str, grid: tuple[float, ...]) -> np.ndarray:
-    """g_tau(channel) for every tau of ``grid``, shape (len(grid), n), one scan per segment.
-    Kept for the last few (signals, grid) pairs: profiling asks for the same arms many times,
-    and a sensor effect on another channel does not change them."""
-    key = _arms_key(signals, channel, grid)
-    if key in _ARMS:
-        _ARMS.move_to_end(key)
-        return _ARMS[key]
+    """g_tau(channel) for every tau of ``grid``, shape (len(grid), n). Each tau's row is
+    scanned once per (signals, channel) and kept for the last few of them: profiling asks for
+    the same arms many times, a sensor effect on another channel does not change them, and a
+    delayed channel needs only the few taus near the model's."""
+    key = _arms_key(signals, channel)
+    table = _ARMS.get(key)
+    if table is None:
+        table = _ARMS[key] = {}
+        while len(_ARMS) > _ARMS_KEPT:
+            _ARMS.popitem(last=False)
+    _ARMS.move_to_end(key)
+    missing = list(dict.fromkeys(float(tau) for tau in grid if float(tau) not in table))
+    for lo in range(0, len(missing), _BATCH):
+        batch = missing[lo : lo + _BATCH]
+        padded = batch + [batch[-1]] * (_BATCH - len(batch))
+        for tau, row in zip(batch, _scan(signals, channel, padded), strict=False):
+            table[tau] = row
+    return np.stack([table[float(tau)] for tau in grid])
+
+
+def _scan(signals: Signals, channel: str, taus: list[float]) -> np.ndarray:
+    """Rows g_tau(channel), shape (len(taus), n), one scan per segment."""
     import jax
     import jax.numpy as jnp
 
     unit_response = _compiled_response()
     t, x = signals["t"], signals[channel]
-    out = np.empty((len(grid), len(signals)))
+    out = np.empty((len(taus), len(signals)))
     with jax.enable_x64(True):
         for rows in signals.segments():
             start = np.zeros(len(rows), dtype=bool)
             start[0] = True
             response = unit_response(
-                jnp.asarray(t[rows]), jnp.asarray(x[rows]), jnp.asarray(start), jnp.asarray(grid)
+                jnp.asarray(t[rows]), jnp.asarray(x[rows]), jnp.asarray(start), jnp.asarray(taus)
             )
             out[:, rows] = np.asarray(response).T
-    _ARMS[key] = out
-    while len(_ARMS) > _ARMS_KEPT:
-        _ARMS.popitem(last=False)
     return out
 
 
@@ -74,17 +87,17 @@ def memory_response(signals: Signals, channel: str, tau: float, hyper: Hyper | N
     lt = np.log(tau)
     if not log_grid[0] - 1e-12 <= lt <= log_grid[-1] + 1e-12:
         raise ValueError(f"tau={tau} s lies outside the grid [{hyper.grid[0]}, {hyper.grid[-1]}]")
-    arms = memory_arms(signals, channel, hyper.grid)
     index = int(np.argmin(np.abs(log_grid - lt)))
     if abs(log_grid[index] - lt) < 1e-12:
-        return arms[index]
+        return memory_arms(signals, channel, (hyper.grid[index],))[0]
     first = int(np.clip(np.searchsorted(log_grid, lt) - 2, 0, len(log_grid) - 4))
     nodes = range(first, first + 4)
     weights = [
         np.prod([(lt - log_grid[k]) / (log_grid[j] - log_grid[k]) for k in nodes if k != j])
         for j in nodes
     ]
-    return np.tensordot(weights, arms[first : first + 4], axes=1)
+    arms = memory_arms(signals, channel, tuple(hyper.grid[first : first + 4]))
+    return np.tensordot(weights, arms, axes=1)
 
 
 def lagged(signals: Signals, values: np.ndarray, time: float, kind: str) -> np.ndarray:

@@ -134,7 +134,10 @@ def fit(structure: Structure, signals: Signals, rows: np.ndarray | None = None) 
     rows = signals.train if rows is None else rows
     design = structure.plan(signals)
     target = signals.target
-    least = LeastSquares.from_plan(design, target, rows, signals.cache)
+    y_key = signals.cache.get(("target digest",))
+    if y_key is None:  # signals never change: their target is hashed once
+        y_key = signals.cache[("target digest",)] = ("target", id(signals))
+    least = LeastSquares.from_plan(design, target, rows, signals.cache, y_key)
     return StructureFit(structure, design, least, target, rows)
 
 

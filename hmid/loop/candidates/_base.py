@@ -126,8 +126,12 @@ class Candidate(Term):
 
 
 def direction(signals: Signals) -> np.ndarray:
-    """sign(v) of the velocity estimate, through the smoother (as the force containing it)."""
-    return signals.smooth(np.sign(signals[raw("v")]))
+    """sign(v) of the velocity estimate, through the smoother (as the force containing it);
+    computed once per signals (every friction candidate refits the Coulomb level with it)."""
+    found = signals.cache.get(("direction",))
+    if found is None:
+        found = signals.cache[("direction",)] = signals.smooth(np.sign(signals[raw("v")]))
+    return found
 
 
 def stack(signals: Signals, *columns: Column) -> Columns:
