@@ -47,8 +47,12 @@ def _simulate(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from hmid.pipeline.compilation import use_compilation_cache
     from pipelines.identify import run
 
+    if Path(args.results).is_file():  # said before anything is made beside it
+        raise NotADirectoryError(20, "Not a directory", str(args.results))
+    use_compilation_cache(Path(args.results) / ".jax-cache")
     run_dir, metrics = run(Path(args.config), results=Path(args.results), force=args.force)
     print(console_summary(metrics))
     print(f"report: {run_dir / 'report.html'}")

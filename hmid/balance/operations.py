@@ -11,7 +11,7 @@ import numpy as np
 from hmid.balance.signals import Signals
 from hmid.balance.terms import Hyper
 
-_ARMS: OrderedDict[tuple, dict[float, np.ndarray]] = OrderedDict()
+_ARMS: OrderedDict[tuple, dict] = OrderedDict()  # per (signals, channel): tau -> row
 _ARMS_KEPT = 8
 _BATCH = 4  # taus scanned at once: one compiled shape, and all that an interpolation needs
 
@@ -53,27 +53,31 @@ def memory_arms(signals: Signals, channel: str, grid: tuple[float, ...]) -> np.n
     for lo in range(0, len(missing), _BATCH):
         batch = missing[lo : lo + _BATCH]
         padded = batch + [batch[-1]] * (_BATCH - len(batch))
-        for tau, row in zip(batch, _scan(signals, channel, padded), strict=False):
+        for tau, row in zip(batch, _scan(signals, channel, padded, table), strict=False):
             table[tau] = row
     return np.stack([table[float(tau)] for tau in grid])
 
 
-def _scan(signals: Signals, channel: str, taus: list[float]) -> np.ndarray:
-    """Rows g_tau(channel), shape (len(taus), n), one scan per segment."""
+def _scan(signals: Signals, channel: str, taus: list[float], table: dict) -> np.ndarray:
+    """Rows g_tau(channel), shape (len(taus), n), one scan per segment (its arrays converted
+    for JAX once, kept in ``table``)."""
     import jax
     import jax.numpy as jnp
 
     unit_response = _compiled_response()
-    t, x = signals["t"], signals[channel]
     out = np.empty((len(taus), len(signals)))
     with jax.enable_x64(True):
-        for rows in signals.segments():
-            start = np.zeros(len(rows), dtype=bool)
-            start[0] = True
-            response = unit_response(
-                jnp.asarray(t[rows]), jnp.asarray(x[rows]), jnp.asarray(start), jnp.asarray(taus)
-            )
-            out[:, rows] = np.asarray(response).T
+        segments = table.get("segments")
+        if segments is None:
+            t, x = signals["t"], signals[channel]
+            segments = table["segments"] = [
+                (rows, jnp.asarray(t[rows]), jnp.asarray(x[rows]),
+                 jnp.asarray(np.arange(len(rows)) == 0))
+                for rows in signals.segments()
+            ]  # fmt: skip
+        taus = jnp.asarray(taus)
+        for rows, t, x, start in segments:
+            out[:, rows] = np.asarray(unit_response(t, x, start, taus)).T
     return out
 
 

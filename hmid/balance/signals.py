@@ -124,10 +124,14 @@ class Signals:
         return self.frame[role].to_numpy()
 
     def segments(self) -> Iterator[np.ndarray]:
-        """Row indices of each segment, in order."""
-        ids = self.frame["segment"].to_numpy()
-        edges = np.flatnonzero(np.diff(ids)) + 1
-        yield from np.split(np.arange(len(ids)), edges)
+        """Row indices of each segment, in order (found once per signals: every smoothing and
+        every memory scan walks them)."""
+        found = self.cache.get(("segments",))
+        if found is None:
+            ids = self.frame["segment"].to_numpy()
+            edges = np.flatnonzero(np.diff(ids)) + 1
+            found = self.cache[("segments",)] = tuple(np.split(np.arange(len(ids)), edges))
+        yield from found
 
     @property
     def dt(self) -> float:

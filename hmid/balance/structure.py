@@ -141,10 +141,13 @@ def fit(structure: Structure, signals: Signals, rows: np.ndarray | None = None) 
     return StructureFit(structure, design, least, target, rows)
 
 
-def scan(best: StructureFit, index: int, signals: Signals, rows=None) -> tuple[StructureFit, list]:
-    """Every grid value of term ``index``'s hyperparameter, the others fixed: the best fit and
-    all of them (in grid order)."""
+def scan(
+    best: StructureFit, index: int, signals: Signals, rows=None, step: int = 1
+) -> tuple[StructureFit, list]:
+    """Every ``step``-th grid value (and the last) of term ``index``'s hyperparameter, the
+    others fixed: the best fit and all of them (in grid order)."""
     grid = best.structure.terms[index].term.hyper.grid
+    grid = tuple(dict.fromkeys((*grid[::step], grid[-1])))
     fits = [fit(best.structure.at(index, g), signals, rows) for g in grid]
     found = min(fits, key=lambda f: f.sse)
     return (found if found.sse < best.sse else best), fits
@@ -205,17 +208,21 @@ def refine(best: StructureFit, signals: Signals, rows=None, *, fixed=()) -> Stru
 
 
 def profile(
-    structure: Structure, signals: Signals, rows=None, *, sweeps: int = 3, fixed=()
+    structure: Structure, signals: Signals, rows=None, *, sweeps: int = 3, fixed=(), step=1
 ) -> StructureFit:
     """The structure with every hyperparameter (but those of the terms at ``fixed`` indices)
     profiled over its whole grid (coordinate sweeps, each from the others' current values),
-    then refined."""
+    then refined. ``step`` > 1 scans every step-th grid value and then walks the grid from the
+    best (:func:`descend`): the whole range at a coarser resolution, for profiles repeated many
+    times (the loop's candidates), whose SSE is smooth along the grid."""
     best = fit(structure, signals, rows)
     indices = [i for i in best.structure.hypers if i not in fixed]
     for _ in range(sweeps if len(indices) > 1 else 1):
         before = [best.structure.terms[i].value for i in indices]
         for index in indices:
-            best, _ = scan(best, index, signals, rows)
+            best, _ = scan(best, index, signals, rows, step)
+            if step > 1:
+                best = descend(best, index, signals, rows)
         if [best.structure.terms[i].value for i in indices] == before:
             break
     return refine(best, signals, rows, fixed=fixed)
