@@ -41,6 +41,28 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
             os.unlink(tmp)
 
 
+@contextmanager
+def held(lock_path: str | Path, waiting: str) -> Iterator[None]:
+    """Hold the file lock ``lock_path`` for the block; if another process holds it, say
+    ``waiting`` (a one-line :class:`~hmid.errors.HmidWarning`) and wait for it."""
+    import warnings
+
+    from filelock import FileLock, Timeout
+
+    from hmid.errors import HmidWarning
+
+    lock = FileLock(lock_path)
+    try:
+        lock.acquire(timeout=0)
+    except Timeout:
+        warnings.warn(waiting, HmidWarning, stacklevel=4)
+        lock.acquire()
+    try:
+        yield
+    finally:
+        lock.release()
+
+
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)

@@ -20,15 +20,13 @@ import json
 import time
 import warnings
 from collections.abc import Callable, Sequence
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
 from typing import Any
 
-from filelock import FileLock, Timeout
-
 from hmid.errors import HmidWarning
+from hmid.files import held
 from hmid.pipeline.cache import StaleEntry, read_entry, write_entry
 
 # what computes a stage's numbers: a new version of any of them recomputes the cache
@@ -155,22 +153,11 @@ class Runner:
             return None
 
 
-@contextmanager
 def _locked(path: Path, what: str):
     """Hold ``locks/<name>.lock`` beside ``path`` while ``what`` is computed; a second run
     waits (and says so)."""
     (path.parent / "locks").mkdir(exist_ok=True)
-    lock = FileLock(path.parent / "locks" / f"{path.name}.lock")
-    try:
-        lock.acquire(timeout=0)
-    except Timeout:
-        warnings.warn(
-            f"{path}: another run is computing {what}; waiting for it (its result is reused)",
-            HmidWarning,
-            stacklevel=3,
-        )
-        lock.acquire()
-    try:
-        yield
-    finally:
-        lock.release()
+    return held(
+        path.parent / "locks" / f"{path.name}.lock",
+        f"{path}: another run is computing {what}; waiting for it (its result is reused)",
+    )

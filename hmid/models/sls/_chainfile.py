@@ -13,17 +13,16 @@ from __future__ import annotations
 import hashlib
 import json
 import warnings
-from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import emcee
 import h5py
 import numpy as np
-from filelock import FileLock, Timeout
 
 from hmid.errors import HmidWarning
+from hmid.files import held
 from hmid.models.sls._errors import SamplerError
 
 #: the fix a chain-file error offers (the file is a cache: deleting it only costs sampling time)
@@ -64,24 +63,13 @@ class _Store:
         self.blocks: list[int] = []  # the rows each written block ends at
         self.digest = _ORIGIN
 
-    @contextmanager
-    def lock(self) -> Iterator[None]:
+    def lock(self):
         """Hold ``<file>.lock`` while sampling: a second writer waits (and says so)."""
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        lock = FileLock(f"{self.path}.lock")
-        try:
-            lock.acquire(timeout=0)
-        except Timeout:
-            warnings.warn(
-                f"{self.path}: another run is sampling this chain; waiting for it to finish",
-                HmidWarning,
-                stacklevel=4,
-            )
-            lock.acquire()
-        try:
-            yield
-        finally:
-            lock.release()
+        return held(
+            f"{self.path}.lock",
+            f"{self.path}: another run is sampling this chain; waiting for it to finish",
+        )
 
     def _open(self, mode: str) -> h5py.File:
         try:
