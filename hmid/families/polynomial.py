@@ -83,7 +83,8 @@ class PolynomialSpec(FamilySpec):
                 units=units,
                 target_unit=units["target"],
             )
-            model.fit(data.frame(variables), data.slot_sign * data.y)
+            model.fit(data.frame(variables), data.slot_sign * data.y,
+                      monomials=smoothed_monomials(model.term_set, data))  # fmt: skip
             fitted.append(
                 Fitted(
                     name=f"poly:{variant}",
@@ -108,7 +109,8 @@ class FittedPolynomial(FittedModel):
     sign: int
 
     def predict(self, data: FitData) -> np.ndarray:
-        return self.sign * self.model.predict(data.frame(self.variables))
+        monomials = smoothed_monomials(self.model.term_set, data)
+        return self.sign * self.model.predict(data.frame(self.variables), monomials=monomials)
 
     def structure(self) -> Structure:
         terms = []
@@ -119,3 +121,15 @@ class FittedPolynomial(FittedModel):
             else:
                 terms.append(ConstantTerm(name=name, sign=self.sign))
         return Structure.of(terms)
+
+
+def smoothed_monomials(terms, data: FitData) -> dict[str, np.ndarray]:
+    """Each term of degree two or more, on ``data``'s rows, as the balance evaluates it
+    (:class:`~hmid.balance.kinds.ChannelTerm`): a product of logged channels on the unsmoothed
+    signals and smoothed after, as the smoothed force that contains it."""
+    out = {}
+    for term in terms:
+        if sum(power for _, power in term.powers) > 1:
+            column = ChannelTerm(name="c", channel=term.name).columns(data.signals, None)
+            out[term.name] = column.values[data.rows, 0]
+    return out

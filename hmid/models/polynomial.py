@@ -174,9 +174,32 @@ class PolynomialModel(ForceModel):
             sorted({v for term in self._terms for v in term.variables}, key=variable_order)
         )
 
+    def fit(self, X: pd.DataFrame, y: np.ndarray, monomials=None) -> PolynomialModel:
+        """As :meth:`ForceModel.fit`; ``monomials`` optionally gives a term's column by its name
+        (e.g. ``"x^3"``: the smoothed cube of the unsmoothed x, where ``X`` and ``y`` are
+        smoothed), used instead of the product of ``X``'s columns."""
+        self._monomials = dict(monomials or {})
+        try:
+            return super().fit(X, y)
+        finally:
+            self._monomials = {}
+
+    def predict(self, X: pd.DataFrame, monomials=None) -> np.ndarray:
+        """As :meth:`ForceModel.predict`, with the ``monomials`` of :meth:`fit`."""
+        self._monomials = dict(monomials or {})
+        try:
+            return super().predict(X)
+        finally:
+            self._monomials = {}
+
     def _design(self, X: Mapping[str, np.ndarray], scales: Mapping[str, float]) -> np.ndarray:
         n = len(next(iter(X.values()))) if X else 0
-        return np.column_stack([term.evaluate(X, scales, n) for term in self._terms])
+        given = getattr(self, "_monomials", {})
+        return np.column_stack([
+            np.asarray(given[term.name], float) / term.scale_factor(scales)
+            if term.name in given else term.evaluate(X, scales, n)
+            for term in self._terms
+        ])  # fmt: skip
 
     def _fit(self, X: Mapping[str, np.ndarray], y: np.ndarray) -> None:
         from scipy import stats
