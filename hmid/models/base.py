@@ -22,7 +22,7 @@ from __future__ import annotations
 import inspect
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass
 from typing import Any, ClassVar
 
@@ -246,3 +246,29 @@ class ForceModel(ABC):
             raise NotFittedError(
                 f"this {type(self).__name__} is not fitted yet; call fit(X, y) first"
             )
+
+
+def fit_table(models: Iterable[ForceModel]) -> pd.DataFrame:
+    """Goodness of fit of fitted models side by side, like thesis Table 4.1 (one row each)."""
+    rows = []
+    for model in models:
+        if not model.is_fitted:
+            raise NotFittedError(f"fit_table: {model!r} is not fitted; fit it first")
+        s = model.summary_
+        rows.append(
+            {
+                "variant": s.name,
+                "family": s.family,
+                "n_params": s.n_params,
+                "n_obs": s.n_obs,
+                "r2": s.r2,
+                "r2_adj": s.r2_adj,
+                "rmse": s.rmse,
+                "aic": s.aic,
+                "bic": s.bic,
+                "condition_number": s.condition_number,
+                "condition_number_unscaled": s.condition_number_unscaled,
+                "warnings": len(s.warnings),
+            }
+        )
+    return pd.DataFrame(rows)

@@ -42,14 +42,20 @@ Every fit reports diagnostics in ``summary_.warnings`` rather than staying silen
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
 
 from hmid.errors import ConfigError, SignalError
 from hmid.models._intervals import autocov_covariance, hac_lags, residual_correlation
-from hmid.models.base import Coefficient, FitSummary, ForceModel, NotFittedError, fit_statistics
+from hmid.models.base import (
+    Coefficient,
+    FitSummary,
+    ForceModel,
+    fit_statistics,
+    fit_table,
+)
 from hmid.models.terms import (
     VARIANTS,
     Term,
@@ -182,7 +188,7 @@ class PolynomialModel(ForceModel):
         try:
             return super().fit(X, y)
         finally:
-            self._monomials = {}
+            del self._monomials  # an argument, not fitted state
 
     def predict(self, X: pd.DataFrame, monomials=None) -> np.ndarray:
         """As :meth:`ForceModel.predict`, with the ``monomials`` of :meth:`fit`."""
@@ -190,7 +196,7 @@ class PolynomialModel(ForceModel):
         try:
             return super().predict(X)
         finally:
-            self._monomials = {}
+            del self._monomials
 
     def _design(self, X: Mapping[str, np.ndarray], scales: Mapping[str, float]) -> np.ndarray:
         n = len(next(iter(X.values()))) if X else 0
@@ -383,29 +389,3 @@ def _scale_of(values: np.ndarray) -> float:
     """Divisor of a variable: its largest absolute value (1 for an all-zero column)."""
     scale = float(np.max(np.abs(values))) if values.size else 0.0
     return scale if scale > 0 else 1.0
-
-
-def fit_table(models: Iterable[ForceModel]) -> pd.DataFrame:
-    """Goodness of fit of fitted models side by side, like thesis Table 4.1 (one row each)."""
-    rows = []
-    for model in models:
-        if not model.is_fitted:
-            raise NotFittedError(f"fit_table: {model!r} is not fitted; fit it first")
-        s = model.summary_
-        rows.append(
-            {
-                "variant": s.name,
-                "family": s.family,
-                "n_params": s.n_params,
-                "n_obs": s.n_obs,
-                "r2": s.r2,
-                "r2_adj": s.r2_adj,
-                "rmse": s.rmse,
-                "aic": s.aic,
-                "bic": s.bic,
-                "condition_number": s.condition_number,
-                "condition_number_unscaled": s.condition_number_unscaled,
-                "warnings": len(s.warnings),
-            }
-        )
-    return pd.DataFrame(rows)
