@@ -1,11 +1,19 @@
 """hmid: system identification of soft fluidic actuators, first of all the Hydro Muscle.
 
 The public surface is re-exported here; submodules hold one concept each. Importing hmid does no
-work: heavy dependencies (JAX, matplotlib) are imported by the functions that use them.
+work: heavy dependencies (pandas, pint, JAX, matplotlib) are imported by the functions that use
+them, and names whose modules import them load on first access.
 """
 
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
 from hmid.errors import ConfigError, HmidError, HmidWarning, LogError, SignalError, UnitError
-from hmid.io.log import CANONICAL_UNITS, Log
+
+if TYPE_CHECKING:
+    from hmid.io.log import CANONICAL_UNITS, Log
 
 __version__ = "0.1.0"
 
@@ -20,3 +28,19 @@ __all__ = [
     "UnitError",
     "__version__",
 ]
+
+# Re-exports whose modules import pandas, resolved on first access (PEP 562) so that `import hmid`
+# and `hmid --help` stay fast.
+_LAZY = {"CANONICAL_UNITS": "hmid.io.log", "Log": "hmid.io.log"}
+
+
+def __getattr__(name: str) -> object:
+    if name not in _LAZY:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(_LAZY[name]), name)
+    globals()[name] = value  # later lookups find it without calling this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

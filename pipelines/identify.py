@@ -22,6 +22,7 @@ STAGES = (
     # the data stages are redone on every run (fast); the cache holds results, not copies of logs
     Stage("load", s.load, (), s.load_depends, store=False),
     Stage("denoise", s.denoise, ("load",), _section("denoise", "rig"), store=False),
+    Stage("inventory", s.inventory, ("load", "denoise"), store=False),
     Stage("friction", s.friction, ("denoise",), _section("friction", "rig", "denoise")),
     Stage(
         "signals",
@@ -45,6 +46,10 @@ STAGES = (
         lambda c: {"loop": c.loop.model_dump(mode="json") if c.loop else None},
     ),
 )
+
+
+#: What the report reads: the logs, as loaded and as smoothed, are let go once the signals exist.
+REPORTED = ("inventory", "friction", "split", "fit", "compare", "loop")
 
 
 def analyse(config: ExperimentConfig, stages: tuple[str, ...], cache: Path, *, force=False) -> dict:
@@ -78,7 +83,7 @@ def run(
     resolved = config_json(config)
     with open_run(results, config.name, config_path, resolved, config.seed, inputs) as folder:
         runner = Runner(Path(results) / config.name / ".cache", force=force)
-        artifacts = runner.run(STAGES, config)
+        artifacts = runner.run(STAGES, config, keep=REPORTED)
         folder.manifest.stages = {name: r.wall_s for name, r in runner.records.items()}
         folder.manifest.cache = {name: r.cached for name, r in runner.records.items()}
         folder.manifest.reused = {f.name: f.reused for f in artifacts["fit"] if f.reused}

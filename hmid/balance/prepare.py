@@ -40,6 +40,28 @@ def _frame(rig: RigSection, name: str, piece: Log, segment: int, t0: float) -> d
     return columns
 
 
+def _joined(parts: list[dict]) -> pd.DataFrame:
+    """One table of the pieces' columns, each copied at most once (a long log is never held as
+    pieces and as this table and a third time)."""
+    lengths = [len(part["t"]) for part in parts]
+    logs = list(dict.fromkeys(part["log"] for part in parts))
+    columns = {
+        "log": pd.Categorical.from_codes(
+            np.repeat([logs.index(part["log"]) for part in parts], lengths).astype(np.int32),
+            logs,
+        ),
+        "segment": np.repeat(np.arange(len(parts), dtype=np.int32), lengths),
+    }
+    for column in parts[0]:
+        if column not in columns:
+            arrays = [np.asarray(part[column]) for part in parts]
+            # one piece: its read-only arrays as they are (copy-on-write keeps them unchanged)
+            columns[column] = arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
+    n = len(columns["t"])
+    columns.update(target=np.zeros(n), train=np.zeros(n, bool), validation=np.zeros(n, bool))
+    return pd.DataFrame(columns, copy=False)
+
+
 #: A row is left out when stopped samples weigh this much in its smoothing kernel: its smoothed
 #: force then mixes in at most this share of static friction (indeterminate, up to 2 Fc).
 STOPPED_SHARE = 0.02
@@ -68,11 +90,11 @@ def prepare(
 ) -> Signals:
     """Signals of every dynamic log's pieces (see the module docstring); ``free_fall_law(v)`` is
     the friction the free-fall tests identified (N, signed with v), for the terms that take it."""
-    frames, segment = [], 0
-    for name, parts in pieces.items():
-        t0 = parts[0].t[0]
-        for piece in parts:
-            columns = _frame(rig, name, piece, segment, t0)
+    parts: list[dict] = []
+    for name, logs in pieces.items():
+        t0 = logs[0].t[0]
+        for piece in logs:
+            columns = _frame(rig, name, piece, len(parts), t0)
             smooth_reach = impulse_reach(piece.t, smoother)
             derivative_reach = (
                 impulse_reach(piece.t, lambda t, y: differentiator.derivative(t, y, 1))
@@ -83,12 +105,10 @@ def prepare(
                 piece.t, columns.get(raw("v")), smoother, max(derivative_reach, smooth_reach),
                 v_deadband, exclude_stuck,
             )  # fmt: skip
-            frames.append(pd.DataFrame(columns))
-            segment += 1
-    if not frames:
+            parts.append(columns)
+    if not parts:
         raise ConfigError("logs: no log has role 'dynamic'; there is nothing to identify")
-    frame = pd.concat(frames, ignore_index=True)
-    frame = frame.assign(target=0.0, train=False, validation=False)
+    frame = _joined(parts)
     signals = Signals(frame, units, rig.model_channels, rig.position, smoother)
     # on the smoothed signals, as a channel term is: a single channel (a force sensor, an
     # acceleration) is then exactly its smoothed self

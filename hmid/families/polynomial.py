@@ -4,6 +4,7 @@ of the balance."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Annotated, Literal
 
@@ -123,13 +124,28 @@ class FittedPolynomial(FittedModel):
         return Structure.of(terms)
 
 
-def smoothed_monomials(terms, data: FitData) -> dict[str, np.ndarray]:
+def smoothed_monomials(terms, data: FitData) -> Mapping[str, np.ndarray]:
     """Each term of degree two or more, on ``data``'s rows, as the balance evaluates it
     (:class:`~hmid.balance.kinds.ChannelTerm`): a product of logged channels on the unsmoothed
-    signals and smoothed after, as the smoothed force that contains it."""
-    out = {}
-    for term in terms:
-        if sum(power for _, power in term.powers) > 1:
-            column = ChannelTerm(name="c", channel=term.name).columns(data.signals, None)
-            out[term.name] = column.values[data.rows, 0]
-    return out
+    signals and smoothed after, as the smoothed force that contains it. Computed when read, so
+    that a long log's design is the only copy of them."""
+    names = [t.name for t in terms if sum(power for _, power in t.powers) > 1]
+    return _Monomials(names, data)
+
+
+@dataclass(frozen=True)
+class _Monomials(Mapping):
+    names: list[str]
+    data: FitData
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name not in self.names:
+            raise KeyError(name)
+        column = ChannelTerm(name="c", channel=name).columns(self.data.signals, None)
+        return column.values[self.data.rows, 0]
+
+    def __iter__(self):
+        return iter(self.names)
+
+    def __len__(self) -> int:
+        return len(self.names)

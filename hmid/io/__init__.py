@@ -1,10 +1,16 @@
 """Logs in, validated, in SI units."""
 
-from hmid._messages import format_validation_error
-from hmid.io.columns import ChannelSpec, ColumnMap, load_column_map
-from hmid.io.log import CANONICAL_UNITS, Log
-from hmid.io.read import log_from_frame, read_log
-from hmid.io.units import si_unit, to_si, unit_registry
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from hmid._messages import format_validation_error
+    from hmid.io.columns import ChannelSpec, ColumnMap, load_column_map
+    from hmid.io.log import CANONICAL_UNITS, Log
+    from hmid.io.read import log_from_frame, read_log
+    from hmid.io.units import si_unit, to_si, unit_registry
 
 __all__ = [
     "CANONICAL_UNITS",
@@ -19,3 +25,31 @@ __all__ = [
     "to_si",
     "unit_registry",
 ]
+
+# Every re-export's module imports pandas or pydantic: each is resolved on first access (PEP 562),
+# so that importing a sibling (hmid.io.log) or hmid itself does not load them all.
+_LAZY = {
+    "CANONICAL_UNITS": "hmid.io.log",
+    "ChannelSpec": "hmid.io.columns",
+    "ColumnMap": "hmid.io.columns",
+    "Log": "hmid.io.log",
+    "format_validation_error": "hmid._messages",
+    "load_column_map": "hmid.io.columns",
+    "log_from_frame": "hmid.io.read",
+    "read_log": "hmid.io.read",
+    "si_unit": "hmid.io.units",
+    "to_si": "hmid.io.units",
+    "unit_registry": "hmid.io.units",
+}
+
+
+def __getattr__(name: str) -> object:
+    if name not in _LAZY:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(_LAZY[name]), name)
+    globals()[name] = value  # later lookups find it without calling this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

@@ -68,7 +68,8 @@ class Log:
         """The channel's samples as a read-only float64 array."""
         if channel not in self.data.columns:
             raise KeyError(f"{self.source}: no channel {channel!r}; it has {list(self.data)}")
-        values = self.data[channel].to_numpy(dtype="float64", copy=True)
+        # a read-only view, not a copy: a long log's channels are read many times over
+        values = self.data[channel].to_numpy(dtype="float64", copy=False)
         values.flags.writeable = False
         return values
 
@@ -101,7 +102,7 @@ class Log:
     # -- derived logs -----------------------------------------------------------------------
     def with_channels(self, units: Mapping[str, str] | None = None, **channels: np.ndarray) -> Log:
         """A new log with channels added or replaced (same length as this one)."""
-        frame = self.data.copy()
+        frame = self.data.copy(deep=False)  # copy-on-write: this log's columns stay as they are
         for name, values in channels.items():
             values = np.asarray(values, dtype="float64")
             if values.shape != (len(frame),):

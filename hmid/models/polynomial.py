@@ -1,6 +1,7 @@
 """Multivariate polynomial force models F_m = sum_k C_k x^i v^j P^l, fitted by OLS (thesis Ch. 4).
 
-The regression is done by statsmodels OLS on *scaled* features: every variable is divided by its
+The regression is least squares (a QR by blocks of rows, :mod:`hmid.models._lstsq`: a long log's
+design is held once) on *scaled* features: every variable is divided by its
 largest absolute value on the training rows, so each regressor lies in [-1, 1]. In physical units
 the cubic-with-pressure design mixes columns from x³ ~ 1e-6 m³ to P ~ 1e5 Pa and its condition
 number is ~1e12; scaled it is ~1e2. Scaling is a diagonal change of basis, so coefficients, standard
@@ -48,7 +49,13 @@ import numpy as np
 import pandas as pd
 
 from hmid.errors import ConfigError, SignalError
-from hmid.models._intervals import autocov_covariance, hac_lags, residual_correlation
+from hmid.models._intervals import (
+    autocov_covariance,
+    hac_covariance,
+    hac_lags,
+    residual_correlation,
+)
+from hmid.models._lstsq import tall_lstsq
 from hmid.models.base import (
     Coefficient,
     FitSummary,
@@ -90,6 +97,10 @@ CALIBRATED_TAU = 66.0
 FORCE_UNIT = "N"
 
 
+def _rows(X: Mapping[str, np.ndarray]) -> int:
+    return len(next(iter(X.values()))) if X else 0
+
+
 def _resolve_terms(terms: object) -> tuple[Term, ...]:
     if isinstance(terms, str):
         return variant_terms(terms)
@@ -127,13 +138,12 @@ class PolynomialModel(ForceModel):
 
     Fitted attributes, in physical units and term order: ``coef_``, ``bse_`` (standard errors),
     ``conf_int_`` (n_terms x 2), ``pvalues_``, ``term_names_``, ``coefficients_`` (tuple of
-    :class:`Coefficient`), ``summary_`` (:class:`FitSummary`); also ``result_`` (the statsmodels
-    results on the *scaled* features, its data arrays removed), ``scales_`` (the divisor of each
+    :class:`Coefficient`), ``summary_`` (:class:`FitSummary`); also ``params_`` (the coefficients
+    of the *scaled* features), ``scales_`` (the divisor of each
     variable), ``condition_number_`` (scaled design), ``condition_number_unscaled_``,
     ``durbin_watson_``, ``tau_int_`` (the residual's integrated autocorrelation time in rows),
     ``acf_window_`` (Sokal's window in lags, ``None`` if the correlation outlasts the lags
     examined) and ``df_`` (degrees of freedom of the t intervals; ``None``: normal, for HAC).
-    For ``errors='autocov'`` the standard errors of ``result_`` are the plain OLS ones.
     """
 
     family = "polynomial"
@@ -184,7 +194,7 @@ class PolynomialModel(ForceModel):
         """As :meth:`ForceModel.fit`; ``monomials`` optionally gives a term's column by its name
         (e.g. ``"x^3"``: the smoothed cube of the unsmoothed x, where ``X`` and ``y`` are
         smoothed), used instead of the product of ``X``'s columns."""
-        self._monomials = dict(monomials or {})
+        self._monomials = monomials or {}  # a mapping; its columns may be computed on demand
         try:
             return super().fit(X, y)
         finally:
@@ -192,24 +202,29 @@ class PolynomialModel(ForceModel):
 
     def predict(self, X: pd.DataFrame, monomials=None) -> np.ndarray:
         """As :meth:`ForceModel.predict`, with the ``monomials`` of :meth:`fit`."""
-        self._monomials = dict(monomials or {})
+        self._monomials = monomials or {}  # a mapping; its columns may be computed on demand
         try:
             return super().predict(X)
         finally:
             del self._monomials
 
     def _design(self, X: Mapping[str, np.ndarray], scales: Mapping[str, float]) -> np.ndarray:
-        n = len(next(iter(X.values()))) if X else 0
-        given = getattr(self, "_monomials", {})
-        return np.column_stack([
-            np.asarray(given[term.name], float) / term.scale_factor(scales)
-            if term.name in given else term.evaluate(X, scales, n)
-            for term in self._terms
-        ])  # fmt: skip
+        exog = np.empty((_rows(X), len(self._terms)))
+        for k, column in enumerate(self._columns(X, scales)):  # one design in memory
+            exog[:, k] = column
+        return exog
+
+    def _columns(self, X: Mapping[str, np.ndarray], scales: Mapping[str, float]):
+        """The design's columns one at a time (``_monomials`` first, where given)."""
+        n, given = _rows(X), getattr(self, "_monomials", {})
+        for term in self._terms:
+            if term.name in given:
+                yield np.asarray(given[term.name], float) / term.scale_factor(scales)
+            else:
+                yield term.evaluate(X, scales, n)
 
     def _fit(self, X: Mapping[str, np.ndarray], y: np.ndarray) -> None:
         from scipy import stats
-        from statsmodels.regression.linear_model import OLS
         from statsmodels.stats.stattools import durbin_watson
 
         n, p = y.size, len(self._terms)
@@ -217,48 +232,45 @@ class PolynomialModel(ForceModel):
             raise SignalError(
                 f"PolynomialModel.fit: {n} rows cannot fit {p} terms; pass more rows than terms"
             )
-        ones = dict.fromkeys(X, 1.0)
-        scales = {v: _scale_of(X[v]) for v in X} if self.scale else ones
+        scales = {v: _scale_of(X[v]) if self.scale else 1.0 for v in X}
         exog = self._design(X, scales)
-        has_const = Term() in self._terms
-        result = OLS(y, exog, hasconst=has_const).fit()
-        gamma, window, self.tau_int_ = residual_correlation(np.asarray(result.resid))
-        self.acf_window_ = window
-        self.hac_lags_ = None
         factor = np.array([term.scale_factor(scales) for term in self._terms])
+        self.hac_lags_ = None
+        # least squares by blocks of rows: a long log's design is held once, not thrice
+        solved = tall_lstsq(exog, y)
+        params, resid, rank = solved.params, solved.resid, solved.rank
+        cond = solved.condition_number()
+        self.condition_number_unscaled_ = solved.condition_number(factor) if self.scale else cond
+        gamma, self.acf_window_, self.tau_int_ = residual_correlation(resid)
         if self.errors == "autocov":
-            lags = window if window is not None else gamma.size - 1
-            bse = np.sqrt(np.diag(autocov_covariance(exog, gamma[: lags + 1])))
-            self.df_ = float(min(n - p, n / (2 * lags + 1)))
-            params = np.asarray(result.params)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                tvalues = params / bse
-            self.pvalues_ = 2 * stats.t.sf(np.abs(tvalues), self.df_)
-            half = stats.t.ppf(0.5 + self.confidence / 2, self.df_) * bse
-            conf_int = np.column_stack([params - half, params + half])
+            lags = self.acf_window_ if self.acf_window_ is not None else gamma.size - 1
+            cov = autocov_covariance(exog, gamma[: lags + 1], solved.bread())
+            df = float(min(n - p, n / (2 * lags + 1)))
+        elif self.errors == "hac":
+            self.hac_lags_ = hac_lags(resid)
+            cov, df = hac_covariance(exog, y, self.hac_lags_, Term() in self._terms), None
         else:
-            if self.errors == "hac":
-                # Newey-West errors, the lag window set by how long the residuals stay correlated
-                self.hac_lags_ = hac_lags(np.asarray(result.resid))
-                result = OLS(y, exog, hasconst=has_const).fit(
-                    cov_type="HAC", cov_kwds={"maxlags": self.hac_lags_}
-                )
-            self.df_ = float(result.df_resid) if result.use_t else None
-            bse = np.asarray(result.bse)
-            self.pvalues_ = np.asarray(result.pvalues)
-            conf_int = np.asarray(result.conf_int(alpha=1.0 - self.confidence))
-
-        self.result_ = result
+            df = float(n - rank)
+            cov = solved.bread() * float(resid @ resid) / df
+        del exog
+        bse = np.sqrt(np.diag(cov))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tvalues = params / bse
+        if df is None:  # HAC: normal, as statsmodels reports it
+            self.pvalues_ = 2 * stats.norm.sf(np.abs(tvalues))
+            half = stats.norm.ppf(0.5 + self.confidence / 2) * bse
+        else:
+            self.pvalues_ = 2 * stats.t.sf(np.abs(tvalues), df)
+            half = stats.t.ppf(0.5 + self.confidence / 2, df) * bse
+        self.df_ = df
+        self.params_ = params  # on the scaled design
         self.scales_ = dict(scales)  # a plain dict: fitted models are pickled by the stage cache
         self.term_names_ = tuple(term.name for term in self._terms)
-        self.coef_ = np.asarray(result.params) / factor
+        self.coef_ = params / factor
         self.bse_ = bse / factor
-        self.conf_int_ = conf_int / factor[:, None]
-        self.condition_number_ = float(result.condition_number)
-        self.condition_number_unscaled_ = (
-            float(np.linalg.cond(self._design(X, ones))) if self.scale else self.condition_number_
-        )
-        self.durbin_watson_ = float(durbin_watson(result.resid))
+        self.conf_int_ = np.column_stack([params - half, params + half]) / factor[:, None]
+        self.condition_number_ = cond
+        self.durbin_watson_ = float(durbin_watson(resid))
         self.coefficients_ = tuple(
             Coefficient(
                 name=f"C{k}",
@@ -272,7 +284,7 @@ class PolynomialModel(ForceModel):
             )
             for k, term in enumerate(self._terms)
         )
-        fit_stats = fit_statistics(y, result.fittedvalues, p)
+        fit_stats = fit_statistics(y, y - resid, p)
         self.summary_ = FitSummary(
             family=self.family,
             name=self.name,
@@ -280,12 +292,9 @@ class PolynomialModel(ForceModel):
             n_params=p,
             condition_number=self.condition_number_,
             condition_number_unscaled=self.condition_number_unscaled_,
-            warnings=self._diagnose(int(result.model.rank), p, n),
+            warnings=self._diagnose(rank, p, n),
             **fit_stats,
         )
-        # results, not copies of the data: the stage cache pickles this model (a 10 M-row log
-        # left 3 GB of design matrix and residuals in it)
-        result.remove_data()
 
     def _diagnose(self, rank: int, p: int, n_obs: int) -> tuple[str, ...]:
         found = []
@@ -334,7 +343,10 @@ class PolynomialModel(ForceModel):
         return tuple(found)
 
     def _predict(self, X: Mapping[str, np.ndarray]) -> np.ndarray:
-        return self._design(X, self.scales_) @ np.asarray(self.result_.params)
+        out = np.zeros(_rows(X))
+        for coefficient, column in zip(self.params_, self._columns(X, self.scales_), strict=True):
+            out += coefficient * column  # no design: a long log's prediction needs one column
+        return out
 
     # -- reporting ------------------------------------------------------------------------------
     def coefficient_table(self) -> pd.DataFrame:

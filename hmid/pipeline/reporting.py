@@ -13,7 +13,6 @@ from hmid.experiment import log_units
 from hmid.files import atomic_path, write_json
 from hmid.plots import plot_model, plot_scores
 from hmid.report import Figure, Report, Section, Table, write_report
-from hmid.summary import summarize
 
 #: The thesis accepted a model at R² above 0.85 (Ch. 4); we apply it to held-out data.
 R2_ACCEPT = 0.85
@@ -177,11 +176,10 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
     unit, label = units["target"], config.rig.explained.name
     best = comparison.scores.iloc[0]
 
-    channels = list(config.rig.log_channels)
-    summaries = [summarize(n, i.role, i.pieces, channels) for n, i in artifacts["denoise"].items()]
-    data = pd.DataFrame([s.row(units) for s in summaries])
+    inventory = artifacts["inventory"]
+    data = pd.DataFrame([s.row(units) for s in inventory.summaries])
     _csv(data, tables / "data_summary.csv")
-    pieces = pd.DataFrame([r.__dict__ for i in artifacts["denoise"].values() for r in i.records])
+    pieces = pd.DataFrame([r.__dict__ for r in inventory.pieces])
     _csv(pieces, tables / "pieces.csv")
     fit_table = _fit_table(artifacts, unit)
     _csv(fit_table, tables / "fit_table.csv")
@@ -212,9 +210,9 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
     if estimate is not None:
         from hmid.friction import plot_free_fall
 
-        free_falls = [p for i in artifacts["denoise"].values() if i.role == "free_fall"
-                      for p in i.pieces]  # fmt: skip
-        plot_free_fall(free_falls, estimate, figures / "friction.png", config.rig.position)
+        plot_free_fall(
+            list(inventory.free_falls), estimate, figures / "friction.png", config.rig.position
+        )
         friction_table = estimate.table()
         _csv(friction_table, tables / "friction.csv")
         friction_sections = (
@@ -235,7 +233,7 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
         if estimate.law is not None and estimate.law.rejected:
             friction_summary += (("friction law", estimate.law.message()),)
 
-    flags = [f for item in artifacts["load"].values() for f in item.log.flags]
+    flags = list(inventory.flags)
     n_train, n_val = split.n_train, split.n_validation
     error_kind = f"one-step: {label} predicted from the measured signals at each sample"
     metrics = {

@@ -19,7 +19,7 @@ import inspect
 import json
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
@@ -101,10 +101,18 @@ class Runner:
         )
         return hashlib.sha256(payload.encode()).hexdigest()
 
-    def run(self, stages: Sequence[Stage], config: Any) -> dict[str, Any]:
-        """Run ``stages`` (each after its inputs); returns every artifact by stage name."""
+    def run(
+        self, stages: Sequence[Stage], config: Any, *, keep: Collection[str] | None = None
+    ) -> dict[str, Any]:
+        """Run ``stages`` (each after its inputs); returns every artifact by stage name, or only
+        those named in ``keep``: the others are let go after their last reader, so that a long
+        log is not held as loaded, as smoothed and as signals at once."""
         artifacts: dict[str, Any] = {}
-        for stage in stages:
+        last_read = {s.name: i for i, s in enumerate(stages)}
+        for i, stage in enumerate(stages):
+            for name in stage.inputs:
+                last_read[name] = i
+        for i, stage in enumerate(stages):
             missing = [name for name in stage.inputs if name not in artifacts]
             if missing:
                 raise ValueError(f"stage {stage.name!r} needs {missing}, not produced before it")
@@ -126,6 +134,9 @@ class Runner:
             cached = (found is not None) if stage.store else None
             record = StageRecord(key, cached, time.perf_counter() - start)
             self.records[stage.name] = record
+            if keep is not None:
+                for name in [n for n in artifacts if n not in keep and last_read[n] <= i]:
+                    del artifacts[name]
         return artifacts
 
     def _compute(self, stage: Stage, config: Any, artifacts: dict[str, Any]) -> Any:

@@ -22,6 +22,7 @@ from hmid.files import sha256
 from hmid.io import Log, load_column_map, read_log
 from hmid.metrics import score
 from hmid.split import validation_masks
+from hmid.summary import LogSummary, summarize
 
 
 @dataclass(frozen=True)
@@ -92,6 +93,30 @@ def denoise(config: ExperimentConfig, load: dict[str, LoadedLog]) -> dict[str, D
         )
         out[name] = Denoised(name, item.role, denoised, tuple(records))
     return out
+
+
+@dataclass(frozen=True)
+class Inventory:
+    """What the report says of the data, kept once the logs themselves are let go: a summary of
+    each log, its pieces, the loader's findings, and the free-fall pieces (short) that the
+    friction figure draws."""
+
+    summaries: tuple[LogSummary, ...]
+    pieces: tuple[Piece, ...]
+    flags: tuple[str, ...]
+    free_falls: tuple[Log, ...]
+
+
+def inventory(
+    config: ExperimentConfig, load: dict[str, LoadedLog], denoise: dict[str, Denoised]
+) -> Inventory:
+    channels = list(config.rig.log_channels)
+    return Inventory(
+        summaries=tuple(summarize(n, i.role, i.pieces, channels) for n, i in denoise.items()),
+        pieces=tuple(r for item in denoise.values() for r in item.records),
+        flags=tuple(f for item in load.values() for f in item.log.flags),
+        free_falls=tuple(p for i in denoise.values() if i.role == "free_fall" for p in i.pieces),
+    )
 
 
 def friction(config: ExperimentConfig, denoise: dict[str, Denoised]):

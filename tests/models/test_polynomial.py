@@ -237,8 +237,7 @@ def test_a_constant_pressure_makes_a_rank_deficiency_warning() -> None:
     terms = variant_terms("quadratic_xvP")
     X, y = sample(terms, true_coefficients(terms), seed=2)
     X["P"] = 1e5
-    with pytest.warns(Warning, match="rank-deficient"):  # statsmodels says so too
-        summary = PolynomialModel("quadratic_xvP").fit(X, y).summary_
+    summary = PolynomialModel("quadratic_xvP").fit(X, y).summary_
     assert any("rank-deficient design: rank 6 < 9" in w for w in summary.warnings)
     assert any("ill-conditioned" in w for w in summary.warnings)
 

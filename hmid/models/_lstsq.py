@@ -1,0 +1,66 @@
+"""Least squares on a tall design without a copy of it.
+
+The R factor of ``[X y]`` is built from blocks of rows, each QR-factored under the R so far (the
+TSQR of Demmel et al.), so the memory beyond the design is one block, where statsmodels' pinv or a
+full QR hold another n x p matrix. From R come the coefficients (by the pseudo-inverse, as
+statsmodels' OLS), the rank and condition number (R has the singular values of X), and
+``(X'X)^-1``, all as stable as a QR of the whole design.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Rows per QR block: large enough for BLAS, small beside a long log.
+BLOCK = 32_768
+
+
+@dataclass(frozen=True)
+class TallFit:
+    """``params``, the residual, and the R factor of the design (p x p)."""
+
+    params: np.ndarray
+    resid: np.ndarray
+    r: np.ndarray
+    n: int
+
+    @property
+    def singular_values(self) -> np.ndarray:
+        return np.linalg.svd(self.r, compute_uv=False)
+
+    @property
+    def rank(self) -> int:
+        """numpy's ``matrix_rank`` rule on the design's singular values."""
+        s = self.singular_values
+        return int(
+            np.sum(s > s.max(initial=0.0) * max(self.r.shape[1], self.n) * np.finfo(float).eps)
+        )
+
+    def condition_number(self, column_factor: np.ndarray | None = None) -> float:
+        """Condition number of the design, or of the design with column k multiplied by
+        ``column_factor[k]`` (its R is R times the same diagonal)."""
+        r = self.r if column_factor is None else self.r * column_factor
+        s = np.linalg.svd(r, compute_uv=False)
+        return float(s.max() / s.min()) if s.min() > 0 else float("inf")
+
+    def bread(self) -> np.ndarray:
+        """``(X'X)^-1`` (a pseudo-inverse where X is rank-deficient)."""
+        inverse = np.linalg.pinv(self.r, rcond=1e-15)
+        return inverse @ inverse.T
+
+
+def tall_lstsq(exog: np.ndarray, y: np.ndarray, block: int = BLOCK) -> TallFit:
+    """Ordinary least squares of ``y`` on ``exog`` (n x p), by blocks of ``block`` rows."""
+    n, p = exog.shape
+    r = np.zeros((0, p + 1))
+    for start in range(0, n, block):
+        rows = np.column_stack([exog[start : start + block], y[start : start + block]])
+        r = np.linalg.qr(np.vstack([r, rows]), mode="r")
+    r_x, qty = r[:p, :p], r[:p, p]
+    if r_x.shape[0] < p:  # fewer rows than terms
+        r_x = np.vstack([r_x, np.zeros((p - r_x.shape[0], p))])
+        qty = np.concatenate([qty, np.zeros(p - qty.size)])
+    params = np.linalg.pinv(r_x, rcond=1e-15) @ qty
+    return TallFit(params, y - exog @ params, r_x, n)
