@@ -37,23 +37,21 @@ import time
 
 import numpy as np
 import pandas as pd
+from _calibration import (
+    CONFIDENCE,
+    ENTROPY,
+    RATE,
+    SIGMA,
+    SIGMA_SENSOR,
+    SIGMA_X,
+    noise,
+    trajectory,
+)
 from threadpoolctl import threadpool_limits
 
 from hmid.models.polynomial import PolynomialModel
 from hmid.models.terms import variant_terms
 from hmid.report.markdown import markdown_table
-from hmid.signal.moving_average import MovingAverage, Window
-from hmid.simulate.params import RigParams
-from hmid.simulate.profiles import RandomLevels
-from hmid.simulate.rig import integrate
-
-ENTROPY = 20261115
-RATE = 1000.0
-CONFIDENCE = 0.95
-SIGMA = 0.02  # N, marginal sd of white and AR(1) noise
-SIGMA_SENSOR = 0.05  # N, white load-cell noise before the pipeline's smoothing
-SIGMA_X = 2e-5  # m, position noise before smoothing (noisy-inputs case)
-SMOOTHER = MovingAverage(Window(seconds=0.011), "centred", "shrink", 3)  # hmid run's default
 
 #: (label, noise model, truth variant, fitted variant, extra x³ in N at full x, noisy x, judged)
 CASES = (
@@ -67,15 +65,6 @@ CASES = (
 )  # fmt: skip
 
 
-def trajectory(seconds: float) -> pd.DataFrame:
-    """x [m], v [m/s], P [Pa] of the simulated rig under random pressure levels."""
-    rng = np.random.default_rng(np.random.SeedSequence(ENTROPY, spawn_key=(99,)))
-    t = np.arange(int(seconds * RATE)) / RATE
-    profile = RandomLevels(low=6e4, high=2e5, hold_min=0.3, hold_max=1.0)
-    traj = integrate(RigParams(), profile.command(t, rng), RATE)
-    return pd.DataFrame({"x": traj.x, "v": traj.v, "P": traj.P})
-
-
 def truth_of(variant: str, X: pd.DataFrame) -> np.ndarray:
     """Coefficients in physical units, each term worth 0.2-1 N at the trajectory's full scale."""
     terms = variant_terms(variant)
@@ -83,19 +72,6 @@ def truth_of(variant: str, X: pd.DataFrame) -> np.ndarray:
     size = rng.uniform(0.2, 1.0, len(terms)) * rng.choice([-1.0, 1.0], len(terms))
     full = {k: float(np.max(np.abs(X[k]))) for k in X}
     return np.array([a / t.scale_factor(full) for a, t in zip(size, terms, strict=True)])
-
-
-def noise(model: str | float, n: int, sigma: float, rng: np.random.Generator) -> np.ndarray:
-    from scipy.signal import lfilter
-
-    if model == "white":
-        return rng.normal(0.0, sigma, n)
-    if model == "smoothed":
-        return SMOOTHER(np.arange(n) / RATE, rng.normal(0.0, sigma, n))
-    phi = float(model)
-    burn = int(20 / (1 - phi))  # the start-up transient decays to phi^burn ~ 1e-9
-    e = lfilter([1.0], [1.0, -phi], rng.normal(0.0, sigma * np.sqrt(1 - phi**2), n + burn))
-    return e[burn:]
 
 
 def run_case(index: int, case: tuple, X: pd.DataFrame, reps: int, errors: str | None) -> dict:

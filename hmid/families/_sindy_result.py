@@ -102,15 +102,17 @@ class SINDyResult(FittedModel):
         return Extras("\n\n".join(text), tables, figures)
 
 
-#: How the bootstrap intervals must be read (they cover resampling spread only).
+#: What no interval of the family includes.
 INTERVAL_CAVEAT = (
-    "Bootstrap intervals reflect resampling spread at the chosen threshold only: bias from the "
-    "velocity estimate, the smoothing lag or the force reconstruction is not in them, so they can "
-    "be narrow and still miss the truth. Checked on simulator truth: the nominal 95 % intervals "
-    "covered 89 % (64 of 72) of the true coefficients with white noise on F_m (they undercover: "
-    "read them as ~90 % intervals), and all of them under thesis-level sensor noise, where the "
-    "selection spread widens them."
+    "Neither interval method includes bias from the velocity estimate, the smoothing lag, the "
+    "force reconstruction or a term missing from the library: an interval can be narrow and "
+    "still miss the truth."
 )
+
+
+def interval_note(force: SINDyForceModel) -> str:
+    """The note on the coefficient intervals: method, level, calibration, what they leave out."""
+    return f"{force.interval_method()}. {INTERVAL_CAVEAT}"
 
 
 def _threshold_text(force: SINDyForceModel) -> str:
@@ -135,11 +137,19 @@ def _inclusion_text(force: SINDyForceModel) -> str:
         for n, p, k in zip(names, force.inclusion_, force.kept_, strict=True)
         if 0.2 <= p < 0.8 and not k
     ]
+    if force.intervals == "bootstrap":
+        interval = (
+            "interval = percentile interval of its coefficient over the fits (zeros included)"
+        )
+    else:
+        interval = (
+            "interval = the OLS refit's on the selected terms, from the residual's "
+            "autocovariance, conditional on the selected support (left-out terms have none)"
+        )
     return (
         f"Uncertainty: {force.n_models} STLSQ fits on a blocked bootstrap ({force.n_blocks_} "
         f"blocks of {force.block_seconds:g} s, seed {force.seed}); inclusion = fraction of the "
-        "fits that keep a term, interval = percentile interval of its coefficient over the fits "
-        "(zeros included). "
+        f"fits that keep a term (is it in the model?); {interval}. "
         + (f"Kept by the config (never thresholded): {', '.join(kept)}. " if kept else "")
         + (
             f"Terms in doubt (inclusion 0.2–0.8): {', '.join(unsure)}."

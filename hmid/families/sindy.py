@@ -1,6 +1,11 @@
 """The SINDy family: a sparse force map F_m(x, v, P) discovered with pysindy, with per-term
 inclusion probabilities and intervals, and a free run of the resulting equation of motion.
 
+Two questions, two answers: a term's *inclusion probability* (the blocked-bootstrap ensemble)
+says how sure the data are that it belongs in the model; the *interval* of a selected
+coefficient (by default the post-selection OLS refit's, from the residual's autocovariance, as
+the polynomial family's) says how well the data pin it down **given the selected support**.
+
 Design (issue 4): the muscle force is a sparse regression ``F_m = Theta(x, v, P) xi`` on the
 sliding training rows (target: the pipeline's reconstructed F_m), scored one-step like the
 polynomial family; the equation of motion ``(M + m1) a = F_m - m1 g - friction(v)`` uses the
@@ -23,7 +28,10 @@ Config (``models: [{family: sindy, ...}]``)::
     threshold: cv               # or a number: RMS contribution / std(F_m) below which terms go
     cv: {folds: 5, points: 30, rule: one_se}
     ridge: 0.0                  # STLSQ ridge, per training row
-    ensemble: {models: 50, block_seconds: 0.25, confidence: 0.95}
+    ensemble: {models: 50, block_seconds: 0.25, confidence: 0.95}  # confidence: the level
+                                #   of the coefficient intervals, whichever method
+    intervals: autocov          # or bootstrap (the ensemble's percentile intervals; see
+                                #   hmid.models.sindy._intervals)
     seed_offset: 0              # ensemble seed = experiment seed + seed_offset
     velocity: {kind: pipeline}  # or {kind: smoothed_finite_difference, window_s: 0.05,
                                 #     polyorder: 3} (pysindy, on each whole log)
@@ -125,6 +133,9 @@ class SINDySpec(FamilySpec):
     cv: CrossValidation = CrossValidation()
     ridge: Annotated[float, Field(ge=0)] = 0.0
     ensemble: Ensemble = Ensemble()
+    # autocov: calibrated (benchmarks/bench_calibration_sindy.py); bootstrap: the old percentile
+    # intervals, kept for comparison -- far wider wherever resamples pick other terms
+    intervals: Literal["autocov", "bootstrap"] = "autocov"
     seed_offset: Annotated[int, Field(ge=0)] = 0
     velocity: Annotated[
         PipelineVelocity | SmoothedFiniteDifferenceVelocity, Field(discriminator="kind")
@@ -175,9 +186,9 @@ class SINDySpec(FamilySpec):
 
     def fit(self, data: FitData, context: FitContext) -> list[Fitted]:
         from hmid.families._sindy_result import (
-            INTERVAL_CAVEAT,
             VARIABLES,
             SINDyResult,
+            interval_note,
             sequences,
             with_velocity,
         )
@@ -195,7 +206,7 @@ class SINDySpec(FamilySpec):
             threshold=self.threshold, folds=self.cv.folds, path_points=self.cv.points,
             rule=self.cv.rule, ridge=self.ridge, n_models=self.ensemble.models,
             block_seconds=self.ensemble.block_seconds, confidence=self.ensemble.confidence,
-            seed=context.seed + self.seed_offset, name=self.name,
+            intervals=self.intervals, seed=context.seed + self.seed_offset, name=self.name,
         )  # fmt: skip
         model.fit(frame, data.slot_sign * data.y)
         notes = list(model.summary_.warnings)
@@ -221,12 +232,14 @@ class SINDySpec(FamilySpec):
                     for b in run.blocks
                     if b.status != "ok"
                 )
-        notes.append(INTERVAL_CAVEAT)
+        notes.append(interval_note(model))
         summary = model.summary_.to_dict() | {
             "threshold": model.threshold_,
             "selected_terms": list(model.selected),
             "stuck_rows_left_out": model.n_stuck_,
             "ensemble_models": model.n_models,
+            "intervals": model.intervals,
+            "residual_tau_int_rows": model.tau_int_,
         }
         if run is not None:
             summary |= {k: (None if isinstance(v, float) and not np.isfinite(v) else v)

@@ -9,7 +9,9 @@ meaning; the equation of motion follows from it and the identified friction.
   in x, v, P with per-variable caps, plus tanh(v/v0) for friction; no duplicate columns), rows
   with |v| < stick_speed left out, threshold by blocked cross-validation on the training rows
   (one-standard-error rule), a blocked-bootstrap ensemble (seeded ``numpy.random.Generator``,
-  NumPy's global state untouched) for each term's inclusion probability and interval. All
+  NumPy's global state untouched) for each term's inclusion probability, and an interval for
+  each selected coefficient: the post-selection OLS refit's from the residual's autocovariance
+  (conditional on the selected support; or the ensemble's percentile interval on request). All
   least-squares problems run on QR-compressed blocks, so 30k rows fit in about a second.
 * :class:`EquationOfMotion` -- mass a = F_m(x, v, P) - friction(v) - offset from the rig's
   declared balance and motion (Ch. 4: mass M + m1, offset m1 g), sign(v) replaced by tanh(v/v0),

@@ -15,12 +15,17 @@ Fitting, on the rows given (sliding rows of the training logs in the pipeline):
    the threshold reads the same way ("drop terms worth less than 1 % of the force's spread");
 3. the threshold is a number, or chosen by blocked cross-validation on these rows
    (:func:`~hmid.models.sindy._sparse.threshold_path`, one-standard-error rule);
-4. pysindy's STLSQ on all rows gives the model; a blocked bootstrap ensemble at the same
-   threshold gives each term's inclusion probability and a percentile interval (zeros included,
-   so a term selected in 60 % of the resamples has an interval reaching 0).
+4. pysindy's STLSQ on all rows gives the model (its last step an OLS refit on the selected
+   terms); a blocked bootstrap ensemble at the same threshold gives each term's inclusion
+   probability ("is this term in the model?");
+5. each selected coefficient gets an interval (``intervals=``, see
+   :mod:`~hmid.models.sindy._intervals`): by default the OLS refit's, with the covariance from
+   the residual's autocovariance, as the polynomial family's -- **conditional on the selected
+   support**; ``"bootstrap"`` gives the ensemble's percentile intervals instead (the old default:
+   wide wherever resamples pick other supports).
 
-The intervals reflect resampling spread at a fixed threshold only: they do not know about bias
-in the derivative or the force reconstruction, and may be narrow and still miss the truth.
+Neither interval knows about bias in the derivative, the force reconstruction or a term missing
+from the library: they may be narrow and still miss the truth.
 """
 
 from __future__ import annotations
@@ -41,6 +46,12 @@ from hmid.models.base import (
     check_target,
     fit_statistics,
 )
+from hmid.models.sindy._intervals import (
+    INTERVALS,
+    describe,
+    percentile_intervals,
+    support_intervals,
+)
 from hmid.models.sindy._library import Feature, FeatureLibrary, ForceMap, canonical_name
 from hmid.models.sindy._sparse import (
     ThresholdPath,
@@ -55,6 +66,8 @@ from hmid.models.sindy._sparse import (
 MIN_ROWS = 50
 #: Fewest blocks for cross-validation and the bootstrap.
 MIN_BLOCKS = 4
+#: Inclusion probabilities that leave a term in doubt (neither clearly in nor clearly out).
+DOUBT = (0.2, 0.8)
 
 
 class SINDyForceModel(ForceModel):
@@ -62,6 +75,14 @@ class SINDyForceModel(ForceModel):
 
     ``fit(X, y)`` reads x, v, P and, when present, ``log`` and ``t`` (blocks of
     ``block_seconds`` within each log; without ``t`` the rows form 50 equal blocks in order).
+    ``intervals`` is the method of the coefficients' ``confidence`` intervals: ``"autocov"``
+    (post-selection OLS, conditional on the selected support) or ``"bootstrap"``.
+
+    Fitted attributes, in library order: ``coef_`` (0 for terms left out), ``std_err_`` and
+    ``ci_`` (n_terms x 2) of the chosen method (NaN for terms left out under ``"autocov"``),
+    ``inclusion_`` and ``ensemble_coef_`` (the bootstrap), ``tau_int_`` and ``acf_window_``
+    (the selected model's residual correlation), ``df_`` (of the t intervals; None for
+    ``"bootstrap"``), ``threshold_``, ``path_``, ``features_``, ``coefficients_``, ``summary_``.
     """
 
     family = "sindy"
@@ -83,6 +104,7 @@ class SINDyForceModel(ForceModel):
         n_models: int = 50,
         block_seconds: float = 0.25,
         confidence: float = 0.95,
+        intervals: str = "autocov",
         seed: int = 0,
         name: str = "sindy",
     ) -> None:
@@ -96,6 +118,8 @@ class SINDyForceModel(ForceModel):
             raise ConfigError(f"n_models must be an integer >= 2, got {n_models!r}")
         if not (0.5 < confidence < 1):
             raise ConfigError(f"confidence must lie in (0.5, 1), got {confidence!r}")
+        if intervals not in INTERVALS:
+            raise ConfigError(f"intervals must be one of {', '.join(INTERVALS)}, got {intervals!r}")
         for key, value in (("stick_speed", stick_speed), ("ridge", ridge)):
             if not (math.isfinite(value) and value >= 0):
                 raise ConfigError(f"{key} must be a finite number >= 0, got {value!r}")
@@ -125,6 +149,7 @@ class SINDyForceModel(ForceModel):
         self.n_models = n_models
         self.block_seconds = block_seconds
         self.confidence = confidence
+        self.intervals = intervals
         self.seed = seed
         self.name = name
 
@@ -213,9 +238,17 @@ class SINDyForceModel(ForceModel):
         self.normalized_coef_ = xi
         self.ensemble_coef_ = ensemble * to_physical
         self.inclusion_ = np.mean(ensemble != 0, axis=0)
-        tail = (1 - self.confidence) / 2
-        self.ci_ = np.quantile(self.ensemble_coef_, [tail, 1 - tail], axis=0).T
-        self.std_err_ = self.ensemble_coef_.std(axis=0, ddof=1)
+        # the residual's correlation is reported for either method (a diagnostic of the fit)
+        post = support_intervals(Z, y / y_scale, xi, self.confidence)
+        self.tau_int_, self.acf_window_ = post.tau_int, post.window
+        if self.intervals == "autocov":
+            scale = np.abs(to_physical)
+            self.std_err_ = post.std_err * scale
+            self.ci_ = np.sort(post.ci * to_physical[:, None], axis=1)
+            self.df_ = post.df
+        else:
+            self.std_err_, self.ci_ = percentile_intervals(self.ensemble_coef_, self.confidence)
+            self.df_ = None
         self.n_blocks_ = stats.n_blocks
         self.coefficients_ = tuple(
             Coefficient(
@@ -238,6 +271,24 @@ class SINDyForceModel(ForceModel):
             warnings_.append(f"duplicate library columns dropped: {', '.join(library.dropped_)}")
         if n_params == 0:
             warnings_.append(f"threshold {threshold:.3g} removed every term; F_m = 0")
+        doubt = [
+            f"{f.pretty} ({p:.2f})"
+            for f, p, k in zip(self.features_, self.inclusion_, keep, strict=True)
+            if DOUBT[0] <= p < DOUBT[1] and not k
+        ]
+        if doubt and self.intervals == "autocov":
+            warnings_.append(
+                f"support in doubt: {', '.join(doubt)} kept by {DOUBT[0]:g}-{DOUBT[1]:g} of the "
+                "bootstrap fits; the coefficient intervals are conditional on the selected "
+                "support and miss the truth where another support is the right one"
+            )
+        if self.acf_window_ is None:
+            warnings_.append(
+                f"the residual stays correlated beyond the lags examined (a tenth of the rows; "
+                f"correlation time >= {self.tau_int_:.0f} rows): the coefficient intervals are "
+                "likely too narrow; the library probably misses slow structure, or the log is "
+                "too short"
+            )
         self.summary_ = FitSummary(
             family=self.family,
             name=self.name,
@@ -266,9 +317,14 @@ class SINDyForceModel(ForceModel):
         return tuple(f.name for f, c in zip(self.features_, self.coef_, strict=True) if c != 0)
 
     def coefficient_table(self) -> pd.DataFrame:
-        """Every library term: value (0 if not selected), unit, ensemble spread and inclusion."""
+        """Every library term: value (0 if not selected), unit, standard error and interval of
+        the ``intervals`` method (named in the ``interval method`` column), bootstrap inclusion."""
         self._check_fitted()
         level = f"{100 * self.confidence:g}%"
+        if self.intervals == "autocov":
+            method = np.where(self.coef_ != 0, "autocov, given the support", "none (left out)")
+        else:
+            method = np.full(self.coef_.size, "bootstrap percentile")
         frame = pd.DataFrame(
             {
                 "term": [f.pretty for f in self.features_],
@@ -277,6 +333,7 @@ class SINDyForceModel(ForceModel):
                 "std_err": self.std_err_,
                 f"ci_low ({level})": self.ci_[:, 0],
                 f"ci_high ({level})": self.ci_[:, 1],
+                "interval method": method,
                 "inclusion": self.inclusion_,
                 "selected": self.coef_ != 0,
                 "kept by config": self.kept_,
@@ -284,6 +341,14 @@ class SINDyForceModel(ForceModel):
             index=pd.Index([f"C{k}" for k in range(len(self.features_))], name="name"),
         )
         return frame
+
+    def interval_method(self) -> str:
+        """One line for reports: the intervals' level, method and calibration for this fit."""
+        self._check_fitted()
+        return describe(
+            self.intervals, self.confidence, self.n_models, self.tau_int_, self.acf_window_,
+            self.df_,
+        )  # fmt: skip
 
     def equation(self, digits: int = 4) -> str:
         """``'F_m = 0.0002 [N/Pa]·P - 3000 [N/m]·x - 2e+06 [N/m³]·x³'`` (selected terms only)."""
