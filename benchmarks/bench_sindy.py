@@ -40,18 +40,29 @@ def truth_frame(seconds: float, seed: int = 0, noise: float = 0.01) -> pd.DataFr
     )  # fmt: skip
 
 
-def bench_fit(rows) -> None:
+def fit_rows() -> tuple[pd.DataFrame, np.ndarray]:
+    """The fit benchmarks' data: 30,000 sliding rows of a 40 s chirp (X: log, t, x, v, P; F_m)."""
     frame = truth_frame(40.0)
     rows_30k = frame[~frame["stuck"]].iloc[:30_000]
-    X, y = rows_30k[["log", "t", "x", "v", "P"]], rows_30k["F_m"].to_numpy()
+    return rows_30k[["log", "t", "x", "v", "P"]], rows_30k["F_m"].to_numpy()
+
+
+def normalised_design(model: SINDyForceModel, X: pd.DataFrame, y: np.ndarray):
+    """The fitted ``model``'s library on ``X``, each column divided by its RMS, and ``y`` by its
+    standard deviation (a column): the problem the model's STLSQ solves, for pysindy."""
+    design = model.library_.transform({c: X[c].to_numpy() for c in ("x", "v", "P")})
+    design = design / np.sqrt(np.mean(design**2, axis=0))
+    return design, (y / y.std()).reshape(-1, 1)
+
+
+def bench_fit(rows) -> None:
+    X, y = fit_rows()
     model = SINDyForceModel(keep=())
     ours = median_time(lambda: model.fit(X, y), 3)
 
     import pysindy as ps
 
-    design = model.library_.transform({c: X[c].to_numpy() for c in ("x", "v", "P")})
-    design = design / np.sqrt(np.mean(design**2, axis=0))
-    target = (y / y.std()).reshape(-1, 1)
+    design, target = normalised_design(model, X, y)
 
     def baseline():
         state = np.random.get_state()  # noqa: NPY002 (EnsembleOptimizer uses the global state)

@@ -16,6 +16,11 @@ from hmid.families.base import Extras, FitData, FittedModel
 PREDICT_BATCH = 25  # posterior draws predicted at once for the band
 
 
+#: The longest residual correlation time (samples) at which the widened SLS intervals were
+#: measured: AR(1) phi = 0.8 and the smoothed white noise of benchmarks/bench_sls_calibration.py.
+CALIBRATED_TAU = 20.0
+
+
 @dataclass(frozen=True)
 class SLSFitted(FittedModel):
     """A sampled SLS posterior that predicts on FitData rows (pickled by the stage cache)."""
@@ -31,6 +36,7 @@ class SLSFitted(FittedModel):
     rig: RigSection
     method: str = "mcmc"  # "exact": independent draws from the collapsed posterior
     grid: Any = None  # hmid.models.sls.collapsed.Grid of the exact posterior
+    adjustment: Any = None  # hmid.models.sls._sandwich.Adjustment, if the draws were widened
 
     def structure(self) -> Structure:
         """The SLS terms at the posterior median's relaxation times."""
@@ -80,12 +86,12 @@ class SLSFitted(FittedModel):
                 f"{r.stop_reason}); min ESS {np.min(r.ess):.0f}, acceptance "
                 f"{r.acceptance_mean:.2f}"
             )
-        notes = [
-            how,
+        notes = [how, self._interval_method()]
+        notes += [
             f"noise model {self.noise}: lag-1 autocorrelation of the start fit's residuals "
             f"{self.lag1_rho:.2f} (Ljung-Box p = {self.lag1_p:.2g})",
         ]
-        if self.correlated and self.noise == "iid":
+        if self.correlated and self.noise == "iid" and self.adjustment is None:
             notes.append(
                 "residuals are clearly correlated, so these i.i.d.-likelihood intervals are too "
                 "narrow (optimistic); noise: ar1 widens them but can bias the point estimate"
@@ -96,6 +102,26 @@ class SLSFitted(FittedModel):
         if r.reused_steps:
             notes.append(self.reused())
         return (*notes, *self.start_notes)
+
+    def _interval_method(self) -> str:
+        """The intervals' level, method and calibration (benchmarks/bench_sls_calibration.py)."""
+        level = f"{100 * self.spec.confidence:g} % posterior intervals"
+        a = self.adjustment
+        if a is not None:
+            widest = max(a.widening, key=a.widening.get)
+            within = a.window is not None and a.tau_int <= CALIBRATED_TAU
+            return (
+                f"{level}, widened to the sandwich covariance for the residual's autocovariance "
+                f"(correlation time {a.tau_int:.3g} samples; widths x{min(a.widening.values()):.2f}"
+                f"-{a.widening[widest]:.2f}, most for {widest}); calibrated for residual "
+                f"correlation times up to {CALIBRATED_TAU:g} samples, this fit "
+                f"{'within' if within else 'BEYOND'} that range"
+            )
+        if self.noise == "ar1":
+            return f"{level} of the AR(1) likelihood (calibrated on AR(1) residuals)"
+        if self.method == "exact":
+            return f"{level} of the i.i.d. likelihood, not adjusted (errors: likelihood)"
+        return f"{level} of the i.i.d. likelihood (emcee: no sandwich adjustment)"
 
     def _unsettled_signs(self) -> list[str]:
         """The flat prior lets the data decide a force parameter's sign: say where they don't."""
