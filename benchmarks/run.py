@@ -1,9 +1,10 @@
 """hmid benchmarks: each figure is a ratio against a baseline run side by side, medians of repeats.
 
-Run: ``make bench`` (or ``.venv/bin/python benchmarks/run.py [--quick]``). Runs the core table
-below, then every other ``benchmarks/bench_*.py`` script one after another (never side by side:
-the machine has two cores), and writes all their tables to stdout and to one file
-``results/benchmarks/<UTC time>.md``. ``--quick`` runs only the core table.
+Run: ``make bench`` (or ``.venv/bin/python benchmarks/run.py [--quick]``). Runs
+``bench_targets.py`` first (issue 14's targets, one table: met or not), then the core table below,
+then every other ``benchmarks/bench_*.py`` script one after another (never side by side: the
+machine has two cores), and writes all their tables to stdout and to one file
+``results/benchmarks/<UTC time>.md``, the targets at the top. ``--quick`` runs only the core table.
 """
 
 from __future__ import annotations
@@ -111,9 +112,14 @@ def bench_read_log(rows):
 
 
 SCRIPTS = (
+    ("Targets (issue 14)", "bench_targets.py", []),  # first: its table heads the output
+    ("Startup: import hmid and hmid --help", "bench_startup.py", []),
     ("SLS likelihood", "bench_sls_likelihood.py", []),
     ("SLS stage speed and calibration", "bench_sls_calibration.py", []),
     ("Polynomial interval calibration", "bench_calibration_polynomial.py", []),
+    ("Balance (loop) interval calibration", "bench_calibration_balance.py", []),
+    ("SINDy interval calibration", "bench_calibration_sindy.py", []),
+    ("Friction interval calibration", "bench_calibration_friction.py", []),
     ("Memory and disk at 1 M and 10 M rows", "bench_memory.py", ["--rows", "1000000", "10000000"]),
     ("SINDy fit", "bench_sindy.py", []),
     ("Cost against log length", "bench_scaling.py", []),
@@ -121,12 +127,26 @@ SCRIPTS = (
 )
 
 
-def run_scripts() -> list[str]:
+def _tables(stdout: str) -> list[str]:
+    """The Markdown tables (``|`` lines) and italic notes (``_`` lines) of a script's output,
+    a blank line between a note and a table."""
+    kept: list[str] = []
+    for line in stdout.splitlines():
+        if not line.startswith(("|", "_")):
+            continue
+        if kept and kept[-1][0] != line[0] and "|" in (kept[-1][0], line[0]):
+            kept.append("")
+        kept.append(line)
+    return kept
+
+
+def run_scripts(scripts) -> list[str]:
+    """A section per script of ``scripts``: its title, its Markdown table and italic notes."""
     import subprocess
 
     sections = []
     here = Path(__file__).resolve().parent
-    for title, script, args in SCRIPTS:
+    for title, script, args in scripts:
         if not (here / script).is_file():
             continue
         print(f"running {script} ...", flush=True)
@@ -136,7 +156,7 @@ def run_scripts() -> list[str]:
             text=True,
             cwd=here.parent,
         )
-        table = [line for line in done.stdout.splitlines() if line.startswith("|")]
+        table = _tables(done.stdout)
         status = "" if done.returncode == 0 else f"\n(exit {done.returncode}: {done.stderr[-300:]})"
         sections.append(f"## {title} (`{script}`)\n\n" + "\n".join(table) + status + "\n")
     return sections
@@ -144,6 +164,9 @@ def run_scripts() -> list[str]:
 
 def main() -> int:
     quick = "--quick" in sys.argv[1:]
+    targets = "" if quick else "\n".join(run_scripts(SCRIPTS[:1])) + "\n"
+    if targets:
+        print(targets, flush=True)
     rows: list[tuple] = []
     bench_simulator(rows)
     bench_moving_average(rows)
@@ -160,8 +183,9 @@ def main() -> int:
         lines.append(f"| {what} | {baseline} | {ours:.4f} | {base_s} | {ratio} | {note} |")
     text = "\n".join(lines) + "\n"
     print(text, flush=True)
+    text = targets + text
     if not quick:
-        text += "\n" + "\n".join(run_scripts())
+        text += "\n" + "\n".join(run_scripts(SCRIPTS[1:]))
         print(text)
     out = Path("results/benchmarks")
     out.mkdir(parents=True, exist_ok=True)

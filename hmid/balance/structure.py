@@ -251,10 +251,9 @@ def _sensitivity(fitted: StructureFit, index: int, signals: Signals) -> np.ndarr
     return (predictions[0] - predictions[1]) / (2 * h)
 
 
-def parameters(
-    fitted: StructureFit, signals: Signals, tau_int: float, confidence: float
-) -> pd.DataFrame:
-    """The fitted parameters with intervals (standard errors inflated by tau_int), profiled ones
+def parameters(fitted: StructureFit, signals: Signals, confidence: float) -> pd.DataFrame:
+    """The fitted parameters with intervals (for errors correlated as the residual is, see
+    :func:`~hmid.balance.statistics.inference`), profiled ones
     included: their sensitivity columns enter the covariance (Gauss-Newton), so the linear
     parameters that trade off against them get honest intervals. Columns: parameter, value,
     std. error, lower, upper, unit, positive."""
@@ -267,7 +266,7 @@ def parameters(
         columns = columns + Columns(
             names, ("1",) * len(extras), np.column_stack(list(extras.values()))
         )
-    table = inference(columns, fitted.target, fitted.rows, tau_int, confidence)
+    table = inference(columns, fitted.target, fitted.rows, signals, confidence)
     width = fitted.columns.width
     half = (table["upper"] - table["lower"]).to_numpy() / 2
     value = table["value"].to_numpy().copy()

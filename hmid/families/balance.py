@@ -32,6 +32,7 @@ from hmid.balance import (
     sign_findings,
 )
 from hmid.balance.kinds import ModelSlot
+from hmid.balance.statistics import CALIBRATED_TAU
 from hmid.families.base import FamilySpec, FitContext, FitData, Fitted, FittedModel
 
 
@@ -96,7 +97,7 @@ class BalanceSpec(FamilySpec):
         signals = data.signals.trim(*structure.margins)
         fitted = profile(structure, signals)
         tau_int = residual_tau_int(fitted.residual, signals)
-        table = parameters(fitted, signals, tau_int, self.confidence)
+        table = parameters(fitted, signals, self.confidence)
         reads = dict(zip(fitted.columns.names, fitted.columns.reads, strict=True))
         findings = sign_findings(self.name, table, reads, data.rig.position)
         rows = signals.train
@@ -111,9 +112,11 @@ class BalanceSpec(FamilySpec):
         ).drop(columns=["positive"])
         model = FittedBalance(fitted.structure, fitted.columns.names, fitted.fit.coef.copy())
         notes = [
-            f"least squares on {int(rows.sum())} rows; intervals on the residual's effective "
-            f"sample size n/τ_int = {rows.sum() / tau_int:.0f} (τ_int = {tau_int:.1f} samples) "
-            "and include the profiled parameters",
+            f"least squares on {int(rows.sum())} rows; {100 * self.confidence:g} % intervals "
+            "from the residual's autocovariance, the profiled parameters' included; calibrated "
+            f"for residual correlation times up to {CALIBRATED_TAU:g} samples "
+            "(benchmarks/bench_calibration_balance.py), this fit "
+            f"{tau_int:.1f}: {'within' if tau_int <= CALIBRATED_TAU else 'BEYOND'} that range",
             *(f.message() for f in findings),
         ]
         return [

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from hmid.balance.statistics import CALIBRATED_TAU
 from hmid.loop.plots import plot_structure, plot_whiteness
 from hmid.loop.result import LoopResult
 from hmid.report import Figure, Section, Table
@@ -163,8 +164,11 @@ def loop_section(
         "bootstrap of the change in out-of-fold RMSE), and the before/after errors are "
         "**one-step** on the comparison's held-out rows, which no decision has seen (a lead's "
         "reach before each segment's end left out). Tests count the effective sample size "
-        "n / τ_int (integrated autocorrelation time of the residual); parameter intervals use "
-        "the same inflation, which is approximate."
+        "n / τ_int (integrated autocorrelation time of the residual). Linear parameters' "
+        "intervals are the OLS sandwich with the residual's autocovariance (calibrated for "
+        f"residual correlation times up to {CALIBRATED_TAU:g} samples by "
+        "benchmarks/bench_calibration_balance.py); a profiled parameter's is its profile "
+        "likelihood's on n / τ_int, at the grid's resolution."
     )
     section = Section(
         title,

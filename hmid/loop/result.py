@@ -9,7 +9,6 @@ import numpy as np
 import pandas as pd
 
 from hmid.balance import Signals, StructureFit, parameters
-from hmid.balance.statistics import residual_tau_int
 from hmid.loop.diagnostics import Diagnostics, diagnose
 from hmid.loop.hint import Hint, sparse_hint
 from hmid.metrics import Scores, score
@@ -84,11 +83,10 @@ class LoopResult:
 def own_parameters(
     candidate, fitted: StructureFit, interval, signals: Signals, confidence, model=()
 ):
-    """A candidate's own parameters in ``fitted`` (intervals on its residual's n_eff; a profiled
-    parameter keeps its profile-likelihood interval), less those the ``model`` names already
-    had (a Coulomb level the candidate shares with it)."""
-    tau_int = residual_tau_int(fitted.residual, signals)
-    table = parameters(fitted, signals, tau_int, confidence)
+    """A candidate's own parameters in ``fitted`` (intervals for its residual's correlation; a
+    profiled parameter keeps its profile-likelihood interval), less those the ``model`` names
+    already had (a Coulomb level the candidate shares with it)."""
+    table = parameters(fitted, signals, confidence)
     own_columns = set(candidate.columns(fitted.structure.seen(signals),
                                         fitted.structure.terms[-1].value).names)  # fmt: skip
     own_columns -= set(model)
@@ -171,7 +169,7 @@ def finish(spec, signals, base, start, current, effects, tests, held, steps=()) 
         )
     before_scores = score(signals.target[held], base.prediction[held], "one-step")
     after_scores = before_scores if not effects else current.scores(held)
-    table = parameters(start, signals, residual_tau_int(start.residual, signals), spec.confidence)
+    table = parameters(start, signals, spec.confidence)
     return LoopResult(
         base_name=base.name,
         after_name=base.name + "".join(f" + {e.name}" for e in effects),

@@ -68,7 +68,7 @@ def physical(candidate: Candidate, fitted: StructureFit) -> bool:
     return all(fitted.params.get(k, 1.0) > 0 for k in candidate.positive)
 
 
-def consistent(candidate: Candidate, fitted: StructureFit, signals, tau_int, confidence) -> bool:
+def consistent(candidate: Candidate, fitted: StructureFit, signals, confidence) -> bool:
     """Its sign-fixed parameters are not all of their interval on the wrong side of zero: a
     coefficient whose truth is zero (no drag retracting) is estimated just below it half the
     time, and that is no evidence against the physics."""
@@ -77,7 +77,7 @@ def consistent(candidate: Candidate, fitted: StructureFit, signals, tau_int, con
         return True
     # with the profiled parameters' sensitivities: a viscous coefficient trades off against a
     # relaxation time, and its interval must say so
-    table = parameters(fitted, signals, tau_int, confidence)
+    table = parameters(fitted, signals, confidence)
     upper = table.set_index("parameter")["upper"]
     return candidate.signs_hold({k: float(upper[k]) for k in positive})
 
@@ -117,7 +117,7 @@ def screen(current: StructureFit, candidate: Candidate, signals: Signals, confid
     if candidate.hyper is not None:
         interval = profile_interval(np.asarray(grid, dtype=float), sse, n_eff, confidence)
     collinear = _rank_deficient(joint)
-    ok = not collinear and consistent(candidate, joint, signals, tau_int, confidence)
+    ok = not collinear and consistent(candidate, joint, signals, confidence)
     return Screen(candidate, joint, test, interval, ok, n_eff, collinear)
 
 
