@@ -7,9 +7,9 @@ them, and names whose modules import them load on first access.
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
 
+from hmid._lazy import lazy_exports
 from hmid.errors import ConfigError, HmidError, HmidWarning, LogError, SignalError, UnitError
 
 if TYPE_CHECKING:
@@ -34,13 +34,4 @@ __all__ = [
 _LAZY = {"CANONICAL_UNITS": "hmid.io.log", "Log": "hmid.io.log"}
 
 
-def __getattr__(name: str) -> object:
-    if name not in _LAZY:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(_LAZY[name]), name)
-    globals()[name] = value  # later lookups find it without calling this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY)

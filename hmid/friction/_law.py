@@ -54,8 +54,10 @@ class LawCheck:
             )
         return (
             f"{text}: their residuals run in long stretches of one sign (runs test p = "
-            f"{self.runs_p:.2g}), structure no fitted law explains; the friction level is "
-            "then biased: check the free-fall logs and friction.v_min"
+            f"{self.runs_p:.2g}): either structure no fitted law explains, which biases the "
+            "friction level, or position noise correlated in time, which leaves the level "
+            "unbiased but its pooled interval too narrow; check the free-fall logs and "
+            "friction.v_min"
         )
 
     def to_dict(self) -> dict:
