@@ -8,6 +8,8 @@ lag window of the opt-in ``errors="hac"``.
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 
 
@@ -31,6 +33,18 @@ def residual_correlation(
     return gamma, window, float(max(tau, 1.0))
 
 
+@cache
+def _controller():
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()  # finding the loaded libraries costs ~3 ms: once
+
+
+def one_blas_thread():
+    """A context in which BLAS runs one thread (``threadpoolctl``, its libraries found once)."""
+    return _controller().limit(limits=1, user_api="blas")
+
+
 def autocov_covariance(
     exog: np.ndarray, gamma: np.ndarray, bread: np.ndarray | None = None, block: int = 32_768
 ) -> np.ndarray:
@@ -42,7 +56,6 @@ def autocov_covariance(
     where it leaves a variance <= 0, its Bartlett-tapered version (positive semi-definite for the
     biased sample autocovariance that :func:`residual_correlation` returns) takes over."""
     from scipy.signal import oaconvolve
-    from threadpoolctl import threadpool_limits
 
     n, p = exog.shape
     if bread is None:
@@ -59,7 +72,7 @@ def autocov_covariance(
             filtered = full[start - lo + lags : stop - lo + lags]
             # one BLAS thread: this tall, thin product is memory-bound, and on a busy machine
             # OpenBLAS's threads made it 1000x slower (0.6 s instead of 0.6 ms for 20,000 x 16)
-            with threadpool_limits(limits=1, user_api="blas"):
+            with one_blas_thread():
                 meat += exog[start:stop].T @ filtered
         return bread @ meat @ bread * (n / max(n - p, 1))
 
