@@ -30,8 +30,8 @@ from hmid.signal.reach import impulse_reach
 _DERIVED = {"v": ("v", "v_s"), "a": ("a_est", "a_s")}
 
 
-def _frame(rig: RigSection, name: str, piece: Log, segment: int, t0: float) -> dict:
-    columns = {"log": name, "segment": segment, "t": piece.t - t0}
+def _frame(rig: RigSection, name: str, piece: Log, t0: float) -> dict:
+    columns = {"log": name, "t": piece.t - t0}
     for channel in rig.log_channels:
         columns[raw(channel)], columns[channel] = piece[channel], piece[f"{channel}_s"]
     if rig.position is not None:
@@ -94,7 +94,7 @@ def prepare(
     for name, logs in pieces.items():
         t0 = logs[0].t[0]
         for piece in logs:
-            columns = _frame(rig, name, piece, len(parts), t0)
+            columns = _frame(rig, name, piece, t0)
             smooth_reach = impulse_reach(piece.t, smoother)
             derivative_reach = (
                 impulse_reach(piece.t, lambda t, y: differentiator.derivative(t, y, 1))

@@ -54,7 +54,7 @@ def _interval(value: float, se: float, quantile: float) -> tuple[float, float]:
     return (float(value - quantile * se), float(value + quantile * se))
 
 
-def _load_cell_check(F, v, direction, model, reach, confidence, sign) -> LoadCellCheck:
+def _load_cell_check(F, v, direction, model, confidence, sign) -> LoadCellCheck:
     """OLS of the friction magnitude ``sign s F`` on the model's load-cell design (``sign``: how
     friction enters the force reading, -1 for a load cell behind it: F_l = -friction).
 
@@ -126,9 +126,7 @@ def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign,
     sst = np.sum((u - u.mean()) ** 2)
     load_cell = None
     if force is not None and force in log:
-        load_cell = _load_cell_check(
-            log[force][seg], v[seg], direction, model, reach, confidence, sign
-        )
+        load_cell = _load_cell_check(log[force][seg], v[seg], direction, model, confidence, sign)
     result = LogFriction(
         source=log.source,
         params=dict(fit.params),

@@ -68,9 +68,9 @@ from hmid.models.terms import (
     Term,
     coefficient_unit,
     polynomial_terms,
+    resolve_terms,
     variable_order,
     variable_unit,
-    variant_terms,
 )
 
 __all__ = [
@@ -99,31 +99,6 @@ FORCE_UNIT = "N"
 
 def _rows(X: Mapping[str, np.ndarray]) -> int:
     return len(next(iter(X.values()))) if X else 0
-
-
-def _resolve_terms(terms: object) -> tuple[Term, ...]:
-    if isinstance(terms, str):
-        return variant_terms(terms)
-    try:
-        items = tuple(terms)  # type: ignore[arg-type]
-    except TypeError:
-        raise ConfigError(
-            f"terms must be a variant name ({', '.join(VARIANTS)}) or a tuple of Term, "
-            f"got {type(terms).__name__}"
-        ) from None
-    resolved = tuple(Term.parse(t) if isinstance(t, str) else t for t in items)
-    for term in resolved:
-        if not isinstance(term, Term):
-            raise ConfigError(f"terms must be Term objects or names like 'x^2*v', got {term!r}")
-    if not resolved:
-        raise ConfigError("terms must not be empty")
-    if all(not term.powers for term in resolved):
-        raise ConfigError("terms must involve at least one variable (x, v, P, ...), not only '1'")
-    names = [t.name for t in resolved]
-    duplicates = sorted({n for n in names if names.count(n) > 1})
-    if duplicates:
-        raise ConfigError(f"terms repeat {duplicates}; list each monomial once")
-    return resolved
 
 
 class PolynomialModel(ForceModel):
@@ -157,7 +132,7 @@ class PolynomialModel(ForceModel):
         units: Mapping[str, str] | None = None,
         target_unit: str = FORCE_UNIT,
     ) -> None:
-        self._terms = _resolve_terms(terms)
+        self._terms = resolve_terms(terms)
         for variable in {v for term in self._terms for v in term.variables}:
             variable_unit(variable, units)  # raises ConfigError for a variable without a unit
         if isinstance(confidence, bool) or not isinstance(confidence, int | float):

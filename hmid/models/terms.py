@@ -244,3 +244,29 @@ def variant_terms(name: str) -> tuple[Term, ...]:
         raise ConfigError(f"unknown polynomial variant {name!r}; choose one of {list(VARIANTS)}")
     variables, degree = VARIANTS[name]
     return polynomial_terms(variables, degree)
+
+
+def resolve_terms(terms: object) -> tuple[Term, ...]:
+    """A variant name or a tuple of :class:`Term` (or names like ``'x^2*v'``), checked."""
+    if isinstance(terms, str):
+        return variant_terms(terms)
+    try:
+        items = tuple(terms)  # type: ignore[arg-type]
+    except TypeError:
+        raise ConfigError(
+            f"terms must be a variant name ({', '.join(VARIANTS)}) or a tuple of Term, "
+            f"got {type(terms).__name__}"
+        ) from None
+    resolved = tuple(Term.parse(t) if isinstance(t, str) else t for t in items)
+    for term in resolved:
+        if not isinstance(term, Term):
+            raise ConfigError(f"terms must be Term objects or names like 'x^2*v', got {term!r}")
+    if not resolved:
+        raise ConfigError("terms must not be empty")
+    if all(not term.powers for term in resolved):
+        raise ConfigError("terms must involve at least one variable (x, v, P, ...), not only '1'")
+    names = [t.name for t in resolved]
+    duplicates = sorted({n for n in names if names.count(n) > 1})
+    if duplicates:
+        raise ConfigError(f"terms repeat {duplicates}; list each monomial once")
+    return resolved
