@@ -220,21 +220,19 @@ class LeastSquares:
                 found = memo[("on rows", key, rows_key)] = columns.values[rows]
             return found
 
-        blocks = []
+        offsets = np.cumsum([0, *(len(keep) for _, _, keep in plan.parts)])
+        gram = np.empty((plan.width, plan.width))
         for i, (key_i, c_i, keep_i) in enumerate(plan.parts):
-            row = []
-            for j, (key_j, c_j, keep_j) in enumerate(plan.parts):
-                a, b = (key_i, key_j) if i <= j else (key_j, key_i)
-                gram = memo.get(("gram", a, b, rows_key))
-                if gram is None:
-                    first, second = ((key_i, c_i), (key_j, c_j))[:: 1 if i <= j else -1]
-                    gram = on_rows(*first).T @ on_rows(*second)
-                    memo[("gram", a, b, rows_key)] = gram
-                gram = gram if i <= j else gram.T
-                whole = len(keep_i) == gram.shape[0] and len(keep_j) == gram.shape[1]
-                row.append(gram if whole else gram[np.ix_(keep_i, keep_j)])
-            blocks.append(row)
-        gram = np.block(blocks)
+            for j in range(i, len(plan.parts)):
+                key_j, c_j, keep_j = plan.parts[j]
+                block = memo.get(("gram", key_i, key_j, rows_key))
+                if block is None:
+                    block = on_rows(key_i, c_i).T @ on_rows(key_j, c_j)
+                    memo[("gram", key_i, key_j, rows_key)] = block
+                if len(keep_i) != block.shape[0] or len(keep_j) != block.shape[1]:
+                    block = block[np.ix_(keep_i, keep_j)]
+                gram[offsets[i] : offsets[i + 1], offsets[j] : offsets[j + 1]] = block
+                gram[offsets[j] : offsets[j + 1], offsets[i] : offsets[i + 1]] = block.T
         moment = []
         for key, c, keep in plan.parts:
             m = memo.get(("moment", key, y_key, rows_key))

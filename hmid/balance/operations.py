@@ -17,13 +17,13 @@ _BATCH = 4  # taus scanned at once: one compiled shape, and all that an interpol
 
 
 def _arms_key(signals: Signals, channel: str) -> tuple:
-    found = signals.cache.get(("digest", channel))
-    if found is None:  # hashing the rows costs more than a cached lookup: once per signals
-        digest = hashlib.sha1(signals["t"].tobytes())
-        digest.update(signals[channel].tobytes())
-        digest.update(signals["segment"].tobytes())
-        found = signals.cache[("digest", channel)] = digest.hexdigest()
-    return (found, channel)
+    def digest() -> str:  # hashing the rows costs more than a cached lookup: once per signals
+        found = hashlib.sha1(signals["t"].tobytes())
+        found.update(signals[channel].tobytes())
+        found.update(signals["segment"].tobytes())
+        return found.hexdigest()
+
+    return (signals.derived(("digest", channel), digest), channel)
 
 
 @cache
@@ -59,26 +59,22 @@ def memory_arms(signals: Signals, channel: str, grid: tuple[float, ...]) -> np.n
 
 
 def _scan(signals: Signals, channel: str, taus: list[float], table: dict) -> np.ndarray:
-    """Rows g_tau(channel), shape (len(taus), n), one scan per segment (its arrays converted
-    for JAX once, kept in ``table``)."""
+    """Rows g_tau(channel), shape (len(taus), n): one scan over all rows, restarting at each
+    segment's first (one compiled shape and one call, however many segments; its arrays
+    converted for JAX once, kept in ``table``)."""
     import jax
     import jax.numpy as jnp
 
     unit_response = _compiled_response()
-    out = np.empty((len(taus), len(signals)))
     with jax.enable_x64(True):
-        segments = table.get("segments")
-        if segments is None:
-            t, x = signals["t"], signals[channel]
-            segments = table["segments"] = [
-                (rows, jnp.asarray(t[rows]), jnp.asarray(x[rows]),
-                 jnp.asarray(np.arange(len(rows)) == 0))
-                for rows in signals.segments()
-            ]  # fmt: skip
-        taus = jnp.asarray(taus)
-        for rows, t, x, start in segments:
-            out[:, rows] = np.asarray(unit_response(t, x, start, taus)).T
-    return out
+        arrays = table.get("arrays")
+        if arrays is None:
+            start = np.zeros(len(signals), dtype=bool)
+            start[[rows[0] for rows in signals.segments() if len(rows)]] = True
+            arrays = table["arrays"] = tuple(
+                jnp.asarray(a) for a in (signals["t"], signals[channel], start)
+            )
+        return np.asarray(unit_response(*arrays, jnp.asarray(taus))).T
 
 
 def memory_response(signals: Signals, channel: str, tau: float, hyper: Hyper | None) -> np.ndarray:

@@ -19,7 +19,10 @@ that memory and lag terms read, so every column is evaluated on whole segments a
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+import itertools
+import threading
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 
@@ -29,6 +32,28 @@ import pandas as pd
 from hmid.errors import ConfigError
 
 REQUIRED = ("log", "segment", "t", "target", "usable", "train", "validation")
+
+_VERSIONS = itertools.count()  # a column's version: new whenever a derived set replaces it
+_READING = threading.local()  # the open recordings of what is read (see :func:`recording`)
+
+
+@contextmanager
+def recording() -> Iterator[set]:
+    """The (column, version) pairs read from any :class:`Signals` inside the block (a missing
+    column read as version None), those behind cached derived values included: what a value
+    computed in the block depends on, so that it can be reused wherever they are the same."""
+    stack = _READING.__dict__.setdefault("stack", [])
+    found: set = set()
+    stack.append(found)
+    try:
+        yield found
+    finally:
+        stack.pop()
+
+
+def _noted(deps) -> None:
+    for found in getattr(_READING, "stack", ()):
+        found.update(deps)
 
 
 def raw(channel: str) -> str:
@@ -49,6 +74,8 @@ class Signals:
     smoother: object | None = None  # hmid.signal.Smoother
     # columns and transformed signals computed from these rows (a new set starts empty)
     cache: dict = field(default_factory=dict, compare=False, repr=False)
+    # each column's version: a derived set shares the versions of the columns it keeps
+    versions: Mapping[str, int] | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         missing = [c for c in (*REQUIRED, *self.channels) if c not in self.frame.columns]
@@ -57,6 +84,9 @@ class Signals:
         if (self.frame["train"] & self.frame["validation"]).any():
             raise ValueError("a row cannot be both training and held-out")
         object.__setattr__(self, "units", MappingProxyType(dict(self.units)))
+        if self.versions is None:
+            versions = {c: next(_VERSIONS) for c in self.frame.columns}
+            object.__setattr__(self, "versions", MappingProxyType(versions))
 
     @classmethod
     def from_frame(
@@ -84,54 +114,75 @@ class Signals:
                 out[raw(channel)] = out[channel]
         return cls(out, units, channels, position, smoother)
 
-    # read-only mappings do not pickle; the stage cache pickles signals
+    # read-only mappings do not pickle; the stage cache pickles signals. Versions are this
+    # process's: a loaded set gets new ones
     def __getstate__(self) -> dict:
-        return self.__dict__ | {"units": dict(self.units), "cache": {}}
+        return self.__dict__ | {"units": dict(self.units), "cache": {}, "versions": None}
 
     def __setstate__(self, state: dict) -> None:
         for name, value in state.items():
             object.__setattr__(self, name, MappingProxyType(value) if name == "units" else value)
+        versions = {c: next(_VERSIONS) for c in self.frame.columns}
+        object.__setattr__(self, "versions", MappingProxyType(versions))
 
     def __len__(self) -> int:
         return len(self.frame)
 
     def __getitem__(self, column: str) -> np.ndarray:
+        if column in self.versions:
+            _noted(((column, self.versions[column]),))
         return self.frame[column].to_numpy()
 
     def __contains__(self, column: object) -> bool:
+        _noted(((column, self.versions.get(column)),))
         return column in self.frame.columns
 
     @property
     def train(self) -> np.ndarray:
-        return self.frame["train"].to_numpy()
+        return self["train"]
 
     @property
     def validation(self) -> np.ndarray:
-        return self.frame["validation"].to_numpy()
+        return self["validation"]
 
     @property
     def usable(self) -> np.ndarray:
-        return self.frame["usable"].to_numpy()
+        return self["usable"]
 
     @property
     def target(self) -> np.ndarray:
-        return self.frame["target"].to_numpy()
+        return self["target"]
 
     def rows(self, role: str) -> np.ndarray:
         """The mask of ``role``: ``"train"`` or ``"validation"``."""
         if role not in ("train", "validation"):
             raise ValueError(f"role must be 'train' or 'validation', got {role!r}")
-        return self.frame[role].to_numpy()
+        return self[role]
+
+    def derived(self, key: object, compute: Callable[[], object]) -> object:
+        """``compute()``, once per signals and ``key`` (kept in :attr:`cache`); what it read is
+        noted again on every reuse, so a recording around the caller sees it."""
+        found = self.cache.get(key)
+        if found is None:
+            with recording() as deps:
+                value = compute()
+            found = self.cache[key] = (value, frozenset(deps))
+        _noted(found[1])
+        return found[0]
+
+    def reads_same(self, deps) -> bool:
+        """Whether every (column, version) of ``deps`` (from :func:`recording`) holds here."""
+        return all(self.versions.get(column) == version for column, version in deps)
 
     def segments(self) -> Iterator[np.ndarray]:
         """Row indices of each segment, in order (found once per signals: every smoothing and
         every memory scan walks them)."""
-        found = self.cache.get(("segments",))
-        if found is None:
-            ids = self.frame["segment"].to_numpy()
-            edges = np.flatnonzero(np.diff(ids)) + 1
-            found = self.cache[("segments",)] = tuple(np.split(np.arange(len(ids)), edges))
-        yield from found
+
+        def split() -> tuple[np.ndarray, ...]:
+            ids = self["segment"]
+            return tuple(np.split(np.arange(len(ids)), np.flatnonzero(np.diff(ids)) + 1))
+
+        return iter(self.derived(("segments",), split))
 
     @property
     def dt(self) -> float:
@@ -165,7 +216,10 @@ class Signals:
 
     # -- derived sets -------------------------------------------------------------------------
     def with_columns(self, **columns: np.ndarray) -> Signals:
-        return replace(self, frame=self.frame.assign(**columns), cache={})
+        versions = {**self.versions, **{c: next(_VERSIONS) for c in columns}}
+        return replace(
+            self, frame=self.frame.assign(**columns), cache={}, versions=MappingProxyType(versions)
+        )
 
     def with_roles(self, train: np.ndarray, validation: np.ndarray) -> Signals:
         usable = self.usable
@@ -188,4 +242,5 @@ class Signals:
     def role_frame(self, role: str, columns: tuple[str, ...]) -> pd.DataFrame:
         """The rows of ``role`` with ``columns`` (plus log and t), in order."""
         keep = self.rows(role)
+        _noted((c, self.versions.get(c)) for c in ("log", "t", *columns))
         return self.frame.loc[keep, ["log", "t", *columns]].reset_index(drop=True)

@@ -10,13 +10,13 @@ effective sample size.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from functools import cached_property
+from functools import cached_property, partial
 
 import numpy as np
 import pandas as pd
 
 from hmid.balance.columns import Columns, LeastSquares, Plan, plan
-from hmid.balance.signals import Signals
+from hmid.balance.signals import Signals, recording
 from hmid.balance.statistics import inference
 from hmid.balance.terms import Term
 from hmid.metrics import Scores, score
@@ -69,9 +69,7 @@ class Structure:
         """The signals as the terms see them (sensor effects applied, cached per value)."""
         for placed in self.terms:
             key = ("transform", placed.term, placed.value)
-            if key not in signals.cache:
-                signals.cache[key] = placed.term.transform(signals, placed.value)
-            signals = signals.cache[key]
+            signals = signals.derived(key, partial(placed.term.transform, signals, placed.value))
         return signals
 
     def columns(self, signals: Signals) -> Columns:
@@ -82,14 +80,27 @@ class Structure:
         seen = self.seen(signals)
         parts = []
         for placed in self.terms:
-            key = ("columns", placed.term, placed.value, id(seen))
-            if key not in seen.cache:
-                seen.cache[key] = placed.term.columns(seen, placed.value)
-            parts.append((key, seen.cache[key], placed.term.refines))
+            key, columns = _term_columns(signals.cache, seen, placed)
+            parts.append((key, columns, placed.term.refines))
         # whether a column is in another's span shows on any few thousand rows
         rows = np.flatnonzero(signals.usable)
         rows = rows[:: max(1, len(rows) // 4000)]
         return plan(len(signals), parts, rows, signals.cache)
+
+
+def _term_columns(store: dict, seen: Signals, placed: Placed) -> tuple[tuple, Columns]:
+    """A term's columns on ``seen``, and their key in ``store``: computed once for every set of
+    the columns they read (a sensor effect on P changes neither the columns nor the Gram blocks
+    of the terms that read only x)."""
+    entries = store.setdefault(("columns", placed.term, placed.value), [])
+    for key, deps, columns in entries:
+        if seen.reads_same(deps):
+            return key, columns
+    with recording() as deps:
+        columns = placed.term.columns(seen, placed.value)
+    key = ("columns", placed.term, placed.value, len(entries))
+    entries.append((key, frozenset(deps), columns))
+    return key, columns
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,9 @@ import pytest
 from _balance_data import signals_with
 
 from hmid.balance import Structure, fit, make_term, parameters, profile
+from hmid.balance.columns import Columns
 from hmid.balance.operations import memory_arms
+from hmid.balance.terms import Term
 
 NOISE = 0.01  # N
 
@@ -65,5 +67,37 @@ def test_a_column_two_terms_share_enters_once_and_columns_are_cached():
     columns = structure.columns(signals)
     assert columns.names == ("Fc",)
     assert structure.columns(signals).values is not None
-    assert ("columns", a, None, id(signals)) in signals.cache
+    assert len(signals.cache[("columns", a, None)]) == 1
     assert fit(structure, signals).columns.width == 1
+
+
+class _Scaled(Term):
+    """A sensor effect: every term sees ``channel`` scaled by 1.01."""
+
+    def __init__(self, channel: str) -> None:
+        self.name, self.channel = f"scaled {channel}", channel
+
+    def columns(self, signals, value):
+        return Columns.empty(len(signals))
+
+    def transform(self, signals, value):
+        return signals.with_columns(**{self.channel: 1.01 * signals[self.channel]})
+
+
+def test_a_sensor_effect_recomputes_only_the_columns_that_read_its_channel():
+    """Columns are kept per set of the (column, version) pairs they read: a sensor effect on P
+    reuses the memory arm of x, one on x recomputes it; each equals a fresh computation."""
+    signals = signals_with()
+    memory = make_term({"kind": "memory", "name": "k2", "channel": "x", "sign": -1})
+    pressure = make_term({"kind": "channel", "name": "A", "channel": "P"})
+    Structure.of([memory, pressure], {0: 0.15}).columns(signals)
+    for channel, entries in (("P", 1), ("x", 2)):
+        structure = Structure.of([_Scaled(channel), memory, pressure], {1: 0.15})
+        design = structure.columns(signals)
+        assert len(signals.cache[("columns", memory, 0.15)]) == entries
+        assert len(signals.cache[("columns", pressure, None)]) == 2  # P as logged, P scaled
+        seen = structure.seen(signals)
+        fresh = np.column_stack(
+            [memory.columns(seen, 0.15).values, pressure.columns(seen, None).values]
+        )
+        np.testing.assert_array_equal(design.values, fresh)

@@ -128,10 +128,7 @@ class Candidate(Term):
 def direction(signals: Signals) -> np.ndarray:
     """sign(v) of the velocity estimate, through the smoother (as the force containing it);
     computed once per signals (every friction candidate refits the Coulomb level with it)."""
-    found = signals.cache.get(("direction",))
-    if found is None:
-        found = signals.cache[("direction",)] = signals.smooth(np.sign(signals[raw("v")]))
-    return found
+    return signals.derived(("direction",), lambda: signals.smooth(np.sign(signals[raw("v")])))
 
 
 def stack(signals: Signals, *columns: Column) -> Columns:
