@@ -242,3 +242,16 @@ def test_missing_or_bad_inputs_are_one_line_errors(demo_falls):
     bad.loc[7, "x"] = np.nan
     with pytest.raises(LogError, match=r"^bad\.csv: friction: column 'x' row 7 is not finite"):
         identify_friction([Log(bad, "bad.csv")], RIG, Coulomb(), differentiator=DIFF)
+
+
+def test_logs_that_scatter_beyond_their_intervals_widen_the_pooled_one():
+    """The Birge ratio: three estimates 10 standard errors apart widen the pooled covariance by
+    Q / dof; estimates that agree leave it the inverse-variance one (never narrower)."""
+    from hmid.friction._identify import _pool
+
+    covs = [np.array([[0.01]])] * 3
+    _, cov, q, dof = _pool([np.array([v]) for v in (0.0, 1.0, 2.0)], covs)
+    assert (q, dof) == (pytest.approx(200.0), 2)
+    assert cov[0, 0] == pytest.approx(0.01 / 3 * 100.0)
+    _, cov, q, _ = _pool([np.array([v]) for v in (0.0, 0.05, 0.1)], covs)
+    assert q < 2 and cov[0, 0] == pytest.approx(0.01 / 3)

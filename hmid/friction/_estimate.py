@@ -74,7 +74,8 @@ class FrictionEstimate:
     (fixed effect; for one parameter, the inverse-variance weighted mean), with normal intervals.
     ``q`` is Cochran's Q, ``sum_i (theta_i - theta)' W_i (theta_i - theta)``, chi-square with
     ``q_dof = p (k - 1)`` degrees of freedom if the logs share one friction; a small ``q_p`` says
-    they do not, and then the pooled interval is too narrow. ``i2`` is Higgins' I^2.
+    they do not. The pooled covariance is widened by the Birge ratio ``max(1, q / q_dof)``, so
+    logs that scatter beyond their own intervals widen it. ``i2`` is Higgins' I^2.
     """
 
     model: FrictionModel

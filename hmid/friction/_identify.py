@@ -149,12 +149,18 @@ def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign,
 
 
 def _pool(thetas: list[np.ndarray], covs: list[np.ndarray]):
-    """Fixed-effect (inverse-covariance weighted) mean, its covariance, Cochran's Q and dof."""
+    """Fixed-effect (inverse-covariance weighted) mean, its covariance, Cochran's Q and dof.
+
+    Logs that scatter more than their covariances say (Q > dof: noise correlated beyond what
+    the per-log covariance captures, or friction that differs between falls) widen the pooled
+    covariance by the Birge ratio Q / dof (the Particle Data Group's scale factor, squared); it
+    never narrows it."""
     weights = [np.linalg.inv(c) for c in covs]
     cov = np.linalg.inv(sum(weights))
     mean = cov @ sum(w @ th for w, th in zip(weights, thetas, strict=True))
     q = float(sum((th - mean) @ w @ (th - mean) for w, th in zip(weights, thetas, strict=True)))
-    return mean, cov, q, len(mean) * (len(thetas) - 1)
+    dof = len(mean) * (len(thetas) - 1)
+    return mean, cov * (max(1.0, q / dof) if dof > 0 else 1.0), q, dof
 
 
 def identify_friction(
