@@ -9,6 +9,7 @@ effective sample size.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field, replace
 from functools import cached_property, partial
 
@@ -88,6 +89,9 @@ class Structure:
         return plan(len(signals), parts, rows, signals.cache)
 
 
+_KEYS = itertools.count()
+
+
 def _term_columns(store: dict, seen: Signals, placed: Placed) -> tuple[tuple, Columns]:
     """A term's columns on ``seen``, and their key in ``store``: computed once for every set of
     the columns they read (a sensor effect on P changes neither the columns nor the Gram blocks
@@ -98,7 +102,7 @@ def _term_columns(store: dict, seen: Signals, placed: Placed) -> tuple[tuple, Co
             return key, columns
     with recording() as deps:
         columns = placed.term.columns(seen, placed.value)
-    key = ("columns", placed.term, placed.value, len(entries))
+    key = next(_KEYS)  # names these columns in every memo (an int hashes fast)
     entries.append((key, frozenset(deps), columns))
     return key, columns
 
