@@ -12,6 +12,7 @@ import pandas as pd
 
 from hmid.balance import RigSection, Structure
 from hmid.families.base import Extras, FitData, FittedModel
+from hmid.intervals import IntervalNote
 
 PREDICT_BATCH = 25  # posterior draws predicted at once for the band
 
@@ -102,6 +103,19 @@ class SLSFitted(FittedModel):
         if r.reused_steps:
             notes.append(self.reused())
         return (*notes, *self.start_notes)
+
+    def interval_note(self) -> IntervalNote:
+        """What the posterior intervals are, for the table's columns."""
+        level, a = self.spec.confidence, self.adjustment
+        if a is not None:
+            return IntervalNote(
+                level, "posterior, widened to the autocovariance sandwich", a.tau_int,
+                CALIBRATED_TAU, "benchmarks/bench_sls_calibration.py", a.window is not None,
+            )  # fmt: skip
+        if self.noise == "ar1":
+            return IntervalNote(level, "posterior, AR(1) likelihood",
+                                claim="calibrated on AR(1) residuals")  # fmt: skip
+        return IntervalNote(level, "posterior, i.i.d. likelihood")
 
     def _interval_method(self) -> str:
         """The intervals' level, method and calibration (benchmarks/bench_sls_calibration.py)."""

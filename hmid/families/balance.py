@@ -34,6 +34,7 @@ from hmid.balance import (
 from hmid.balance.kinds import ModelSlot
 from hmid.balance.statistics import CALIBRATED_TAU
 from hmid.families.base import FamilySpec, FitContext, FitData, Fitted, FittedModel
+from hmid.intervals import IntervalNote
 
 
 class BalanceSpec(FamilySpec):
@@ -130,6 +131,13 @@ class BalanceSpec(FamilySpec):
                 equation=_equation(data, fitted.structure, table),
                 notes=tuple(notes),
                 findings=findings,
+                interval=IntervalNote(
+                    self.confidence,
+                    "OLS + autocovariance sandwich (profiled: Gauss-Newton)",
+                    tau_int,
+                    CALIBRATED_TAU,
+                    "benchmarks/bench_calibration_balance.py",
+                ),
             )
         ]
 

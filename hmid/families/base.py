@@ -22,6 +22,7 @@ from pydantic import BaseModel, ConfigDict
 
 from hmid._registry import from_registry
 from hmid.balance import RigSection, Signals, SignFinding, Structure
+from hmid.intervals import IntervalNote
 
 FAMILIES: dict[str, type[FamilySpec]] = {}
 
@@ -113,6 +114,16 @@ class Fitted:
     notes: tuple[str, ...] = field(default_factory=tuple)
     findings: tuple[SignFinding, ...] = field(default_factory=tuple)
     reused: str | None = None  # what the fit read back from stored work (e.g. an MCMC chain)
+    interval: IntervalNote | None = None  # what the coefficients' intervals are
+
+    def coefficient_table(self) -> pd.DataFrame:
+        """The coefficients with the interval's method and calibration status as columns."""
+        if self.interval is None:
+            return self.coefficients
+        columns = self.interval.columns()  # a family's own per-row column stays
+        return self.coefficients.assign(
+            **{k: v for k, v in columns.items() if k not in self.coefficients}
+        )
 
     def predict(self, data: FitData) -> np.ndarray:
         return np.asarray(self.model.predict(data), dtype=float)

@@ -96,6 +96,7 @@ class PolynomialSpec(FamilySpec):
                     coefficients=model.coefficient_table(),
                     equation=model.equation(),
                     notes=(model.interval_method(), *model.summary_.warnings),
+                    interval=model.interval_note(),
                 )
             )
         return fitted

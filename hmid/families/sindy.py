@@ -256,5 +256,6 @@ class SINDySpec(FamilySpec):
                 coefficients=model.coefficient_table(),
                 equation=model.equation(),
                 notes=tuple(notes),
+                interval=model.interval_note(),
             )
         ]

@@ -247,5 +247,6 @@ class SLSSpec(FamilySpec):
                 notes=fitted.notes(),
                 findings=findings,
                 reused=fitted.reused(),
+                interval=fitted.interval_note(),
             )
         ]

@@ -49,6 +49,7 @@ import numpy as np
 import pandas as pd
 
 from hmid.errors import ConfigError, SignalError
+from hmid.intervals import IntervalNote
 from hmid.models._intervals import (
     autocov_covariance,
     hac_covariance,
@@ -343,6 +344,19 @@ class PolynomialModel(ForceModel):
             sign = "-" if c.value < 0 else ("" if k == 0 else "+")
             parts.append(f"{sign}{text}" if k == 0 else f"{sign} {text}")
         return "F_m = " + " ".join(parts)
+
+    def interval_note(self) -> IntervalNote:
+        """What the intervals are, for the coefficient table's columns."""
+        self._check_fitted()
+        if self.errors == "ols":
+            return IntervalNote(self.confidence, "OLS (independent errors)", self.tau_int_)
+        if self.errors == "hac":
+            method, claim = f"Newey-West HAC ({self.hac_lags_} lags)", "measured 0.90-0.94"
+            return IntervalNote(self.confidence, method, self.tau_int_, claim=claim)
+        return IntervalNote(
+            self.confidence, "OLS + autocovariance sandwich", self.tau_int_, CALIBRATED_TAU,
+            "benchmarks/bench_calibration_polynomial.py", self.acf_window_ is not None,
+        )  # fmt: skip
 
     def interval_method(self) -> str:
         """One line for reports: the intervals' level, method and calibration for this fit."""

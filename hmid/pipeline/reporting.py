@@ -91,6 +91,15 @@ def loop_summary(result) -> tuple[tuple[str, str], ...]:
     )
 
 
+def _interval(model) -> dict:
+    """The intervals' level, method and calibration status, for metrics.json."""
+    note = model.interval
+    if note is None:
+        return {}
+    fields = ("level", "method", "status", "tau_int", "calibrated_to")
+    return {"intervals": {name: getattr(note, name) for name in fields}}
+
+
 def _parameters(model) -> dict:
     """The declared parameters of a balance fit: value, interval and unit by name."""
     table = model.coefficients
@@ -140,7 +149,8 @@ def _model_sections(fitted, figures: Path, tables: Path) -> list[Section]:
     sections = []
     for model in fitted:
         safe = model.name.replace(":", "_")
-        _csv(model.coefficients, tables / f"coefficients_{safe}.csv")
+        coefficients = model.coefficient_table()
+        _csv(coefficients, tables / f"coefficients_{safe}.csv")
         text = f"`{model.equation}`" + "".join(f"\n\n- {note}" for note in model.notes)
         extra_tables, extra_figures = [], []
         extras = model.model.report_extras(figures, prefix=safe)
@@ -155,7 +165,7 @@ def _model_sections(fitted, figures: Path, tables: Path) -> list[Section]:
                 model.name,
                 text=text,
                 tables=(
-                    Table(model.coefficients, f"Parameters of {model.name}: units and intervals"),
+                    Table(coefficients, f"Parameters of {model.name}: units and intervals"),
                     *extra_tables,
                 ),
                 figures=tuple(extra_figures),
@@ -243,7 +253,7 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
         "error_kind": error_kind,
         "best_model": str(best["model"]),
         "held_out": comparison.scores.replace({np.nan: None}).to_dict(orient="records"),
-        "fit": [{"model": m.name, **m.fit_summary} for m in fitted],
+        "fit": [{"model": m.name, **m.fit_summary, **_interval(m)} for m in fitted],
         "parameters": {m.name: _parameters(m) for m in fitted if m.family == "balance"},
         "sign_findings": [f.to_dict() for f in findings],
         "friction": None if estimate is None else estimate.to_dict(),

@@ -44,6 +44,11 @@ def test_every_family_honours_the_fit_contract(family, fits, ch4_split, tmp_path
             assert y.shape == (int(data.rows.sum()),) and np.isfinite(y).all()
         json.dumps(model.fit_summary)  # metrics.json
         assert len(model.coefficients) > 0 and model.equation
+        # every interval says what it is: level, method, calibration status
+        table = model.coefficient_table()
+        assert model.interval is not None and {"interval", "calibration"} <= set(table.columns)
+        stated = table["interval"].str.startswith(f"{100 * model.interval.level:g} %")
+        assert stated.any() and (stated | table["interval"].str.startswith("none")).all()
         clone = pickle.loads(pickle.dumps(model))  # the stage cache pickles fitted models
         np.testing.assert_array_equal(clone.predict(held), model.predict(held))
         band = model.predict_interval(held)

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hmid.intervals import IntervalNote
 from hmid.models._intervals import autocov_covariance, residual_correlation
 
 #: Interval methods, the default first.
@@ -81,6 +82,16 @@ def percentile_intervals(ensemble: np.ndarray, confidence: float) -> tuple[np.nd
     tail = (1 - confidence) / 2
     ci = np.quantile(ensemble, [tail, 1 - tail], axis=0).T
     return ensemble.std(axis=0, ddof=1), ci
+
+
+def note(method: str, confidence: float, tau_int: float, window: int | None) -> IntervalNote:
+    """What the coefficient intervals are, for the table's columns."""
+    if method == "bootstrap":
+        return IntervalNote(confidence, "blocked-bootstrap percentile", tau_int)
+    return IntervalNote(
+        confidence, "OLS + autocovariance sandwich, given the support", tau_int, CALIBRATED_TAU,
+        "benchmarks/bench_calibration_sindy.py", window is not None,
+    )  # fmt: skip
 
 
 def describe(

@@ -38,6 +38,7 @@ import pandas as pd
 from threadpoolctl import threadpool_limits
 
 from hmid.errors import ConfigError, SignalError
+from hmid.intervals import IntervalNote
 from hmid.models.base import (
     Coefficient,
     FitSummary,
@@ -49,6 +50,7 @@ from hmid.models.base import (
 from hmid.models.sindy._intervals import (
     INTERVALS,
     describe,
+    note,
     percentile_intervals,
     support_intervals,
 )
@@ -318,13 +320,13 @@ class SINDyForceModel(ForceModel):
 
     def coefficient_table(self) -> pd.DataFrame:
         """Every library term: value (0 if not selected), unit, standard error and interval of
-        the ``intervals`` method (named in the ``interval method`` column), bootstrap inclusion."""
+        the ``intervals`` method (level and method in the ``interval`` column), bootstrap
+        inclusion."""
         self._check_fitted()
         level = f"{100 * self.confidence:g}%"
+        method = np.full(self.coef_.size, self.interval_note().columns()["interval"], dtype=object)
         if self.intervals == "autocov":
-            method = np.where(self.coef_ != 0, "autocov, given the support", "none (left out)")
-        else:
-            method = np.full(self.coef_.size, "bootstrap percentile")
+            method[self.coef_ == 0] = "none (left out)"
         frame = pd.DataFrame(
             {
                 "term": [f.pretty for f in self.features_],
@@ -333,7 +335,7 @@ class SINDyForceModel(ForceModel):
                 "std_err": self.std_err_,
                 f"ci_low ({level})": self.ci_[:, 0],
                 f"ci_high ({level})": self.ci_[:, 1],
-                "interval method": method,
+                "interval": method,
                 "inclusion": self.inclusion_,
                 "selected": self.coef_ != 0,
                 "kept by config": self.kept_,
@@ -341,6 +343,11 @@ class SINDyForceModel(ForceModel):
             index=pd.Index([f"C{k}" for k in range(len(self.features_))], name="name"),
         )
         return frame
+
+    def interval_note(self) -> IntervalNote:
+        """What the coefficient intervals are, for the table's columns."""
+        self._check_fitted()
+        return note(self.intervals, self.confidence, self.tau_int_, self.acf_window_)
 
     def interval_method(self) -> str:
         """One line for reports: the intervals' level, method and calibration for this fit."""

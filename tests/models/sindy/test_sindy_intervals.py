@@ -104,8 +104,10 @@ def test_default_interval_is_the_ols_refit_with_the_residual_autocovariance(trut
     assert model.tau_int_ == pytest.approx(tau)
     assert np.isnan(model.ci_[~on]).all() and np.isnan(model.std_err_[~on]).all()
     table = model.coefficient_table()
-    assert (table.loc[on, "interval method"] == "autocov, given the support").all()
-    assert (table.loc[~on, "interval method"] == "none (left out)").all()
+    assert (
+        table.loc[on, "interval"] == "95 % OLS + autocovariance sandwich, given the support"
+    ).all()
+    assert (table.loc[~on, "interval"] == "none (left out)").all()
     assert [c.std_err for c in model.coefficients_] == pytest.approx(list(model.std_err_[on]))
     assert "Conditional on the selected support" in model.interval_method()
 
@@ -119,7 +121,7 @@ def test_bootstrap_option_gives_the_ensembles_percentile_intervals(truth):
     np.testing.assert_array_equal(default.inclusion_, boot.inclusion_)
     low, high = np.quantile(boot.ensemble_coef_, [0.025, 0.975], axis=0)
     np.testing.assert_allclose(boot.ci_, np.column_stack([low, high]))
-    assert (boot.coefficient_table()["interval method"] == "bootstrap percentile").all()
+    assert (boot.coefficient_table()["interval"] == "95 % blocked-bootstrap percentile").all()
     assert "percentile intervals" in boot.interval_method() and boot.df_ is None
 
 
