@@ -202,9 +202,14 @@ class Signals:
         after, exactly as the measured force that contains it was."""
         if self.smoother is None:
             return np.asarray(values, dtype=float)
-        t, out = self["t"], np.empty(len(self))
-        for rows in self.segments():
-            out[rows] = self.smoother(t[rows], values[rows])
+
+        def bound() -> list:  # the smoother on each segment's time base, checked once
+            t = self["t"]
+            return [(rows, self.smoother.on(t[rows])) for rows in self.segments()]
+
+        out = np.empty(len(self))
+        for rows, smooth in self.derived(("smoothers",), bound):
+            out[rows] = smooth(values[rows])
         return out
 
     def unit(self, channel: str) -> str:

@@ -33,7 +33,9 @@ from __future__ import annotations
 
 import abc
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import ClassVar, Literal, get_args
 
 import numpy as np
@@ -153,6 +155,11 @@ def moving_average(
     y = as_signal(y)
     n = as_window(window).samples(dt, odd=mode == "centred")
     check_fits(n, y.size, f"a {mode} moving average of {n} samples")
+    return _moving_average(y, n, mode, edge)
+
+
+def _moving_average(y: np.ndarray, n: int, mode: Mode, edge: Edge) -> np.ndarray:
+    """:func:`moving_average` of a checked ``y`` over ``n`` samples that fit."""
     if mode == "centred" and edge == "reflect":
         return uniform_filter1d(y, n, mode="reflect")
 
@@ -191,6 +198,11 @@ class Smoother(abc.ABC):
     @abc.abstractmethod
     def __call__(self, t: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Smoothed ``y`` (same length); ``t`` is the strictly increasing time base."""
+
+    def on(self, t: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+        """The smoother for one time base: ``on(t)(y)`` is ``self(t, y)``, with what depends on
+        ``t`` alone checked and computed once (many signals share one time base)."""
+        return partial(self, t)
 
 
 @dataclass(frozen=True)
@@ -234,8 +246,21 @@ class MovingAverage(Smoother):
 
     def __call__(self, t: np.ndarray, y: np.ndarray) -> np.ndarray:
         y = as_signal(y)
-        t = as_time(t, y.size)
+        as_time(t, y.size)
+        return self.on(t)(y)
+
+    def on(self, t: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+        t = as_time(t, np.size(t))
         dt = median_dt(t) if self.window.seconds is not None else None
-        for _ in range(self.passes):
-            y = moving_average(y, self.window, mode=self.mode, edge=self.edge, dt=dt)
-        return y
+        n = self.window.samples(dt, odd=self.mode == "centred")
+        check_fits(n, t.size, f"a {self.mode} moving average of {n} samples")
+
+        def smooth(y: np.ndarray) -> np.ndarray:
+            y = as_signal(y)
+            if y.size != t.size:
+                raise SignalError(f"t has {t.size} samples but the signal has {y.size}")
+            for _ in range(self.passes):
+                y = _moving_average(y, n, self.mode, self.edge)
+            return y
+
+        return smooth

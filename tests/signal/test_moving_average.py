@@ -266,3 +266,21 @@ def test_passes_cascade_the_box_into_a_smooth_kernel():
     assert three.sum() == pytest.approx(1.0)
     with pytest.raises(SignalError, match="passes must be an integer >= 1"):
         MovingAverage(Window(5), passes=0)
+
+
+@pytest.mark.parametrize(
+    "smoother",
+    [
+        Identity(),
+        MovingAverage(Window(seconds=0.011), passes=3),
+        MovingAverage(5, mode="causal"),
+        MovingAverage(7, edge="reflect"),
+    ],
+)
+def test_a_smoother_bound_to_a_time_base_smooths_exactly_as_called_with_it(smoother):
+    t = np.cumsum(np.full(500, 1e-3))
+    y = np.sin(40 * t) + np.random.default_rng(3).normal(0, 0.1, t.size)
+    smooth = smoother.on(t)
+    np.testing.assert_array_equal(smooth(y), smoother(t, y))
+    with pytest.raises(SignalError):
+        smooth(np.append(y, 0.0) if isinstance(smoother, MovingAverage) else y[:, None])
