@@ -88,6 +88,14 @@ class FeatureLibrary:
     # -- fitting ---------------------------------------------------------------------------------
     def fit(self, columns: Mapping[str, np.ndarray]) -> FeatureLibrary:
         """Scales from the training rows, the pysindy library, the kept columns (``features_``)."""
+        self._fit_design(columns)
+        return self
+
+    def fit_transform(self, columns: Mapping[str, np.ndarray]) -> np.ndarray:
+        """:meth:`fit`, then :meth:`transform` of the same rows (their design built once)."""
+        return self._fit_design(columns)[:, self.columns_]
+
+    def _fit_design(self, columns: Mapping[str, np.ndarray]) -> np.ndarray:
         self.scales_ = {v: _scale_of(columns[v]) for v in self.required}
         poly = ps.PolynomialLibrary(degree=self.degree, include_bias=True)
         libraries, inputs = [poly], [list(range(len(self.variables)))]
@@ -114,14 +122,17 @@ class FeatureLibrary:
         if self.friction_term:
             candidates.append((len(powers), Feature(TANH_NAME, TANH_NAME, "N", 1.0)))
         kept, dropped = [], []
+        size = np.max(np.abs(design), axis=0) if len(design) else np.zeros(design.shape[1])
+        probe = design[:: max(1, len(design) // 64)]  # a column unlike another differs here first
         for j, feature in candidates:
-            column = design[:, j]
-            duplicate = any(feature.name == f.name or _same(column, design[:, i]) for i, f in kept)
+            duplicate = any(
+                feature.name == f.name or _same(design, probe, size, j, i) for i, f in kept
+            )
             (dropped if duplicate else kept).append((j, feature))
         self.columns_ = np.array([j for j, _ in kept])
         self.features_ = tuple(f for _, f in kept)
         self.dropped_ = tuple(f.name for _, f in dropped)
-        return self
+        return design
 
     def _raw(self, columns: Mapping[str, np.ndarray]) -> np.ndarray:
         scaled = [columns[v] / self.scales_[v] for v in self.variables]
@@ -162,10 +173,15 @@ def _scale_of(values: np.ndarray) -> float:
     return scale if scale > 0 else 1.0
 
 
-def _same(a: np.ndarray, b: np.ndarray) -> bool:
-    """Columns equal to rounding (a library that adds the same column twice)."""
-    size = max(float(np.max(np.abs(a))), float(np.max(np.abs(b))), 1e-300)
-    return bool(np.max(np.abs(a - b)) <= 1e-12 * size)
+def _same(design: np.ndarray, probe: np.ndarray, size: np.ndarray, j: int, i: int) -> bool:
+    """Columns ``j`` and ``i`` of ``design`` equal to rounding (a library that adds the same
+    column twice); ``probe`` is a subset of its rows, ``size`` its columns' largest magnitudes:
+    a difference there already decides (most pairs), and only a pair alike there is compared
+    whole."""
+    tol = 1e-12 * max(float(size[j]), float(size[i]), 1e-300)
+    if np.max(np.abs(probe[:, j] - probe[:, i]), initial=0.0) > tol:
+        return False
+    return bool(np.max(np.abs(design[:, j] - design[:, i]), initial=0.0) <= tol)
 
 
 def _tanh(u: np.ndarray) -> np.ndarray:

@@ -35,10 +35,10 @@ from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
-from threadpoolctl import threadpool_limits
 
 from hmid.errors import ConfigError, SignalError
 from hmid.intervals import IntervalNote
+from hmid.models._intervals import one_blas_thread
 from hmid.models.base import (
     Coefficient,
     FitSummary,
@@ -179,7 +179,7 @@ class SINDyForceModel(ForceModel):
     def _fit_blocks(self, X: Mapping[str, np.ndarray], y: np.ndarray, blocks: np.ndarray) -> None:
         # hundreds of factorisations of ~18-column matrices: BLAS threads only add overhead
         # (x40 on a busy 2-core machine); the limit is restored on exit
-        with threadpool_limits(limits=1):
+        with one_blas_thread():
             self._fit_blocks_serial(X, y, blocks)
 
     def _fit_blocks_serial(
@@ -209,8 +209,8 @@ class SINDyForceModel(ForceModel):
             blocks = (np.arange(y.size) * MIN_ROWS) // y.size
         library = FeatureLibrary(
             self.variables, self.degree, self.max_degree, self.friction_term, self.v0
-        ).fit(X)
-        design = library.transform(X)
+        )
+        design = library.fit_transform(X)
         rms = np.sqrt(np.mean(design**2, axis=0))
         rms[rms == 0] = 1.0
         y_scale = float(np.std(y)) or 1.0
