@@ -57,7 +57,7 @@ def tall_lstsq(exog: np.ndarray, y: np.ndarray, block: int = BLOCK) -> TallFit:
     r = np.zeros((0, p + 1))
     for start in range(0, n, block):
         rows = np.column_stack([exog[start : start + block], y[start : start + block]])
-        r = np.linalg.qr(np.vstack([r, rows]), mode="r")
+        r = np.linalg.qr(np.vstack([r, rows]) if r.size else rows, mode="r")
     r_x, qty = r[:p, :p], r[:p, p]
     if r_x.shape[0] < p:  # fewer rows than terms
         r_x = np.vstack([r_x, np.zeros((p - r_x.shape[0], p))])

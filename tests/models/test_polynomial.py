@@ -349,6 +349,10 @@ def test_autocov_covariance_is_the_sandwich_with_the_toeplitz_autocovariance() -
     np.testing.assert_allclose(autocov_covariance(exog, gamma), expected, rtol=1e-10)
     # white noise: the OLS covariance (times n / (n - p))
     np.testing.assert_allclose(autocov_covariance(exog, gamma[:1]), bread * 200 / 197, rtol=1e-10)
+    # summed over blocks of rows (each reaching M rows past its edges): the same
+    for block in (7, 50, 199):
+        np.testing.assert_allclose(autocov_covariance(exog, gamma, block=block), expected,
+                                   rtol=1e-10)  # fmt: skip
 
 
 def test_the_interval_method_is_named_and_the_durbin_watson_warning_follows_it() -> None:
@@ -374,3 +378,15 @@ def test_a_correlation_as_long_as_the_log_is_a_warning() -> None:
     assert model.acf_window_ is None
     assert any("stays correlated beyond the lags examined" in w for w in model.summary_.warnings)
     assert "BEYOND that range" in model.interval_method()
+
+
+def test_the_residual_autocovariance_is_statsmodels_acovf() -> None:
+    from statsmodels.tsa.stattools import acovf
+
+    from hmid.models._intervals import residual_correlation
+
+    for n in (2, 9, 1000, 20_001):
+        residual = _ar1(0.9, 1.0, n, np.random.default_rng(n))
+        gamma, _, _ = residual_correlation(residual)
+        expected = acovf(residual, adjusted=False, demean=False, fft=True, nlag=max(n // 10, 1))
+        np.testing.assert_allclose(gamma, expected, rtol=1e-9, atol=1e-12 * expected[0])
