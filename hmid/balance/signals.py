@@ -51,7 +51,7 @@ def recording() -> Iterator[set]:
         stack.pop()
 
 
-def _noted(deps) -> None:
+def _noted(deps: tuple | frozenset) -> None:
     for found in getattr(_READING, "stack", ()):
         found.update(deps)
 
@@ -251,5 +251,5 @@ class Signals:
     def role_frame(self, role: str, columns: tuple[str, ...]) -> pd.DataFrame:
         """The rows of ``role`` with ``columns`` (plus log and t), in order."""
         keep = self.rows(role)
-        _noted((c, self.versions.get(c)) for c in ("log", "t", *columns))
+        _noted(tuple((c, self.versions.get(c)) for c in ("log", "t", *columns)))
         return self.frame.loc[keep, ["log", "t", *columns]].reset_index(drop=True)

@@ -30,3 +30,11 @@ def test_a_derived_set_keeps_the_versions_of_the_columns_it_keeps():
     assert signals.reads_same(absent) and not signals.with_columns(
         nothing=np.ones(len(signals))
     ).reads_same(absent)
+
+
+def test_nested_recordings_each_see_every_read():
+    signals = signals_with()
+    with recording() as outer:
+        with recording() as inner:
+            signals.role_frame("train", ("x",))
+    assert inner == outer and ("x", signals.versions["x"]) in inner
