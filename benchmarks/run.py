@@ -117,6 +117,7 @@ SCRIPTS = (
     ("SLS likelihood", "bench_sls_likelihood.py", []),
     ("SLS stage speed and calibration", "bench_sls_calibration.py", []),
     ("Polynomial interval calibration", "bench_calibration_polynomial.py", []),
+    ("The loop's cost per candidate effect", "bench_loop.py", []),
     ("Balance (loop) interval calibration", "bench_calibration_balance.py", []),
     ("SINDy interval calibration", "bench_calibration_sindy.py", []),
     ("Friction interval calibration", "bench_calibration_friction.py", []),
