@@ -174,6 +174,21 @@ class Signals:
         _noted(found[1])
         return found[0]
 
+    @contextmanager
+    def scoped(self) -> Iterator[Signals]:
+        """What is cached inside the block is dropped after it (entries appended to a cached
+        list are cut back): a candidate's transformed signals and their columns are of no use
+        to the next, and the loop would otherwise hold gigabytes of them."""
+        before = {key: len(v) if isinstance(v, list) else None for key, v in self.cache.items()}
+        try:
+            yield self
+        finally:
+            for key in [key for key in self.cache if key not in before]:
+                del self.cache[key]
+            for key, length in before.items():
+                if length is not None:
+                    del self.cache[key][length:]
+
     def reads_same(self, deps) -> bool:
         """Whether every (column, version) of ``deps`` (from :func:`recording`) holds here."""
         return all(self.versions.get(column) == version for column, version in deps)

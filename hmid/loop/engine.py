@@ -98,7 +98,10 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
     rows, effects, steps = [], [], []
     for round_no in range(1, spec.max_effects + 1):
         signals = with_elastic(signals, current, setting.position)
-        screened = [screen(current, c, signals, spec.confidence) for c in remaining]
+        screened = []
+        for candidate in remaining:
+            with signals.scoped():  # its transforms and columns: of no use to the next
+                screened.append(screen(current, candidate, signals, spec.confidence))
         screened = [s for s in screened if not s.adds_nothing]
         if not screened:
             break

@@ -38,3 +38,15 @@ def test_nested_recordings_each_see_every_read():
         with recording() as inner:
             signals.role_frame("train", ("x",))
     assert inner == outer and ("x", signals.versions["x"]) in inner
+
+
+def test_what_is_cached_in_a_scope_is_dropped_after_it():
+    signals = signals_with()
+    signals.derived(("kept",), lambda: 1)
+    signals.cache["list"] = [1]
+    with signals.scoped():
+        signals.derived(("dropped",), lambda: 2)
+        signals.cache["list"].append(2)
+        assert ("dropped",) in signals.cache
+    assert ("kept",) in signals.cache and ("dropped",) not in signals.cache
+    assert signals.cache["list"] == [1]
