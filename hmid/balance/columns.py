@@ -125,14 +125,6 @@ def plan(n: int, parts, rows: np.ndarray, memo: dict | None = None) -> Plan:
     earlier columns its span holds (see :func:`_spanned`). Both decisions are remembered in
     ``memo`` by the parts' keys."""
     memo = {} if memo is None else memo
-    whole = ("plan", n, tuple((key, bool(r)) for key, _, r in parts), rows.tobytes())
-    found = memo.get(whole)
-    if found is None:
-        found = memo[whole] = _plan(n, parts, rows, memo)
-    return found
-
-
-def _plan(n: int, parts, rows: np.ndarray, memo: dict) -> Plan:
     kept: list[list] = []  # per part: [key, Columns, indices kept]
     for key, columns, refines in parts:
         if refines and columns.width:
