@@ -160,11 +160,17 @@ class ChannelTerm(TermSpec):
 
         return Monomial.parse(self.channel).pretty
 
-    def columns(self, signals, value):
+    def of_smoothed(self, signals) -> bool:
+        """Whether the column is the product of smoothed channels (row by row), rather than
+        a product of raw ones smoothed after (which needs whole segments)."""
         powers = self.powers()
         logged = all(signals.is_logged(channel) for channel in powers)
+        return sum(powers.values()) == 1 or not logged
+
+    def columns(self, signals, value):
+        powers = self.powers()
         values = np.ones(len(signals))
-        if sum(powers.values()) == 1 or not logged:
+        if self.of_smoothed(signals):
             # linear: smoothing commutes with it; v and a are derivatives of the smoothed
             # position, with no unsmoothed version to evaluate a product on
             for channel, power in powers.items():

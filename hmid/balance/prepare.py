@@ -114,8 +114,12 @@ def prepare(
     # acceleration) is then exactly its smoothed self
     explained = np.zeros(len(signals))
     for value, part in zip(rig.part_values(units), rig.explained.parts, strict=True):
+        powers = part.powers()
+        if len(rig.explained.parts) == 1 and value == 1 and list(powers.values()) == [1]:
+            explained = signals[next(iter(powers))]  # a force sensor: that column, not a copy
+            break
         values = np.full(len(signals), value)
-        for channel, power in part.powers().items():
+        for channel, power in powers.items():
             values = values * signals[channel] ** power
         explained += values
     known = np.zeros(len(signals))

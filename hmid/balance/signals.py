@@ -241,8 +241,12 @@ class Signals:
     # -- derived sets -------------------------------------------------------------------------
     def with_columns(self, **columns: np.ndarray) -> Signals:
         versions = {**self.versions, **{c: next(_VERSIONS) for c in columns}}
+        # taken as they are, not copied (pandas copies a bare array): a long log's new columns
+        # are held once; the caller lets go of them (the frame's columns are read-only)
+        index = self.frame.index
+        shared = {c: pd.Series(v, index=index, copy=False) for c, v in columns.items()}
         return replace(
-            self, frame=self.frame.assign(**columns), cache={}, versions=MappingProxyType(versions)
+            self, frame=self.frame.assign(**shared), cache={}, versions=MappingProxyType(versions)
         )
 
     def with_roles(self, train: np.ndarray, validation: np.ndarray) -> Signals:

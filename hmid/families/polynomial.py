@@ -145,6 +145,12 @@ class _Monomials(Mapping):
         column = ChannelTerm(name="c", channel=name).columns(self.data.signals, None)
         return column.values[self.data.rows, 0]
 
+    def product(self, name: str) -> dict[str, int] | None:
+        """The channel powers of ``name`` if its column is their product row by row (each
+        channel as smoothed), so that it can be computed on any block of rows; else None."""
+        term = ChannelTerm(name="c", channel=name)
+        return term.powers() if term.of_smoothed(self.data.signals) else None
+
     def __iter__(self):
         return iter(self.names)
 

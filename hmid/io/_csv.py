@@ -11,7 +11,7 @@ from __future__ import annotations
 import io
 import re
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from itertools import islice
 
 import pandas as pd
@@ -47,6 +47,9 @@ def parse_csv(data: bytes, columns: ColumnMap, source: str) -> tuple[pd.DataFram
         with warnings.catch_warnings():
             # pandas only warns when data rows are wider than the header, and drops the excess
             warnings.simplefilter("error", pd.errors.ParserWarning)
+            # parsed in chunks (the whole file's tokens at once peaked at 4.5x a long log's
+            # float64 size); a column mixed across chunks is checked cell by cell after
+            warnings.simplefilter("ignore", pd.errors.DtypeWarning)
             frame = pd.read_csv(
                 io.BytesIO(data),
                 sep=sep,
@@ -57,7 +60,7 @@ def parse_csv(data: bytes, columns: ColumnMap, source: str) -> tuple[pd.DataFram
                 index_col=False,
                 engine="c",
                 encoding=columns.encoding,
-                low_memory=False,
+                low_memory=True,
             )
     except pd.errors.EmptyDataError:
         raise LogError(
@@ -246,13 +249,14 @@ def _sniff(data: bytes, columns: ColumnMap) -> str:
     return WHITESPACE if len(lines[0].split()) > 1 else ","
 
 
-def line_locator(data: bytes, columns: ColumnMap) -> RowLocator:
-    """Describe a data row as ``"row N (line L)"``; the line map is built on first use only."""
+def line_locator(read: Callable[[], bytes], columns: ColumnMap) -> RowLocator:
+    """Describe a data row as ``"row N (line L)"``; the line map is built on first use only, from
+    the text ``read()`` returns (so that a long log's bytes need not be held until then)."""
     lines: list[int] = []
 
     def locate(row: int) -> str:
         if not lines:
-            lines.extend(_data_line_numbers(data, columns))
+            lines.extend(_data_line_numbers(read(), columns))
         line = f" (line {lines[row]})" if row < len(lines) else ""
         return f"row {row + 1}{line}"
 

@@ -63,7 +63,9 @@ def read_log(
         _check_text(data, source)
         frame, columns, sep = parse_csv(data, columns, source)
         meta |= {"format": "csv", "delimiter": "whitespace" if sep == WHITESPACE else sep}
-        place = Place(source, line_locator(data, columns))
+        # the text is read again only to name a bad row's line: a long log is not held twice
+        place = Place(source, line_locator(Path(path).read_bytes, columns))
+    del data
     return _build(frame, columns, place, min_samples, meta)
 
 
@@ -106,11 +108,13 @@ def _build(
         ch: numeric(frame.iloc[:, positions[ch]], columns.channels[ch].column, ch, place)
         for ch in order
     }
-    calibrated, si, units = {}, {}, {}
-    for ch in order:
+    si, units = {}, {}
+    for ch in order:  # the calibrated values are not kept: one channel's at a time
         spec = columns.channels[ch]
-        calibrated[ch] = spec.offset + spec.scale * raw[ch]
-        si[ch], units[ch] = to_si(calibrated[ch], spec.unit, ch, place.source, column=spec.column)
+        si[ch], units[ch] = to_si(_calibrated(raw[ch], spec), spec.unit, ch, place.source,
+                                  column=spec.column)  # fmt: skip
+        if np.shares_memory(si[ch], raw[ch]):  # not a view: the parsed table is let go
+            si[ch] = si[ch].copy()
     check_length(len(frame), max(columns.min_samples, min_samples or 0), place.source)
     for ch in order:
         check_finite(si[ch], columns.channels[ch].column, ch, place)
@@ -121,18 +125,24 @@ def _build(
     if gap_flag is not None:
         warnings.warn(gap_flag, HmidWarning, stacklevel=3)
     for ch in order:
-        flag = saturation(
-            raw[ch], calibrated[ch], columns.channels[ch], ch, place, columns.saturation
-        )
+        spec = columns.channels[ch]
+        flag = saturation(raw[ch], _calibrated(raw[ch], spec), spec, ch, place, columns.saturation)
         if flag is not None:
             flags.append(flag)
     return Log(
-        pd.DataFrame(si, columns=order),
+        pd.DataFrame(si, columns=order, copy=False),  # no consolidated second copy
         source=place.source,
         units=units,
         flags=tuple(flags),
         meta=meta,
     )
+
+
+def _calibrated(raw: np.ndarray, spec) -> np.ndarray:
+    """``offset + scale * raw`` in the channel's unit; ``raw`` itself for the identity."""
+    if spec.offset == 0 and spec.scale == 1:
+        return raw
+    return spec.offset + spec.scale * raw
 
 
 def _parse_parquet(data: bytes, source: str) -> pd.DataFrame:

@@ -9,6 +9,7 @@ statsmodels' OLS), the rank and condition number (R has the singular values of X
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,7 +52,31 @@ class TallFit:
         return inverse @ inverse.T
 
 
-def tall_lstsq(exog: np.ndarray, y: np.ndarray, block: int = BLOCK) -> TallFit:
+class RowBlocks:
+    """A tall design held by columns, each computed for any block of rows (``columns[k](rows)``,
+    ``rows`` a slice): a column that is cheap to compute from others is never held whole.
+    Sliced by rows it is an array; ``@`` and ``np.asarray`` work block by block."""
+
+    def __init__(self, n: int, columns: Sequence[Callable[[slice], np.ndarray]]) -> None:
+        self.columns = tuple(columns)
+        self.shape = (n, len(self.columns))
+
+    def __getitem__(self, rows: slice) -> np.ndarray:
+        start, stop, _ = rows.indices(self.shape[0])
+        out = np.empty((max(stop - start, 0), self.shape[1]))
+        for k, column in enumerate(self.columns):
+            out[:, k] = column(slice(start, stop))
+        return out
+
+    def __matmul__(self, params: np.ndarray) -> np.ndarray:
+        n = self.shape[0]
+        return np.concatenate([self[i : i + BLOCK] @ params for i in range(0, n, BLOCK)] or [[]])
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        return self[:] if dtype is None else self[:].astype(dtype)
+
+
+def tall_lstsq(exog: np.ndarray | RowBlocks, y: np.ndarray, block: int = BLOCK) -> TallFit:
     """Ordinary least squares of ``y`` on ``exog`` (n x p), by blocks of ``block`` rows."""
     n, p = exog.shape
     r = np.zeros((0, p + 1))

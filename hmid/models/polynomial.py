@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from functools import partial
 
 import numpy as np
 import pandas as pd
@@ -56,7 +57,7 @@ from hmid.models._intervals import (
     hac_lags,
     residual_correlation,
 )
-from hmid.models._lstsq import tall_lstsq
+from hmid.models._lstsq import RowBlocks, tall_lstsq
 from hmid.models.base import (
     Coefficient,
     FitSummary,
@@ -100,6 +101,19 @@ FORCE_UNIT = "N"
 
 def _rows(X: Mapping[str, np.ndarray]) -> int:
     return len(next(iter(X.values()))) if X else 0
+
+
+def _product(arrays, powers: Mapping[str, int], factor: float, rows: slice) -> np.ndarray:
+    # the balance's product of smoothed channels (ChannelTerm), on these rows alone
+    values = np.ones(len(arrays[next(iter(powers))][rows]))
+    for channel, power in powers.items():
+        values = values * arrays[channel][rows] ** power
+    return values / factor
+
+
+def _evaluated(term: Term, arrays, scales, rows: slice) -> np.ndarray:
+    n = len(next(iter(arrays.values()))[rows]) if arrays else rows.stop - rows.start
+    return term.evaluate({v: arrays[v][rows] for v in term.variables}, scales, n)
 
 
 class PolynomialModel(ForceModel):
@@ -184,11 +198,23 @@ class PolynomialModel(ForceModel):
         finally:
             del self._monomials
 
-    def _design(self, X: Mapping[str, np.ndarray], scales: Mapping[str, float]) -> np.ndarray:
-        exog = np.empty((_rows(X), len(self._terms)))
-        for k, column in enumerate(self._columns(X, scales)):  # one design in memory
-            exog[:, k] = column
-        return exog
+    def _design(self, X: Mapping[str, np.ndarray], scales: Mapping[str, float]) -> RowBlocks:
+        """The design by blocks of rows: only the columns smoothed after their product (which
+        need whole segments) are held whole, the others computed block by block."""
+        given = getattr(self, "_monomials", {})
+        local = getattr(given, "product", lambda name: None)
+        arrays = {v: np.asarray(X[v], dtype=float) for v in X}
+        columns = []
+        for term in self._terms:
+            factor = term.scale_factor(scales)
+            powers = local(term.name) if term.name in given else None
+            if term.name in given and powers is None:
+                columns.append((np.asarray(given[term.name], float) / factor).__getitem__)
+            elif term.name in given:
+                columns.append(partial(_product, arrays, powers, factor))
+            else:
+                columns.append(partial(_evaluated, term, arrays, scales))
+        return RowBlocks(_rows(X), columns)
 
     def _columns(self, X: Mapping[str, np.ndarray], scales: Mapping[str, float]):
         """The design's columns one at a time (``_monomials`` first, where given)."""
@@ -224,7 +250,10 @@ class PolynomialModel(ForceModel):
             df = float(min(n - p, n / (2 * lags + 1)))
         elif self.errors == "hac":
             self.hac_lags_ = hac_lags(resid)
-            cov, df = hac_covariance(exog, y, self.hac_lags_, Term() in self._terms), None
+            cov, df = (
+                hac_covariance(np.asarray(exog), y, self.hac_lags_, Term() in self._terms),
+                None,
+            )
         else:
             df = float(n - rank)
             cov = solved.bread() * float(resid @ resid) / df

@@ -67,3 +67,9 @@ def test_rows_are_left_out_where_stopped_samples_weigh_in_the_kernel(simulated, 
         (share == 0) & (np.arange(len(share)) > 100) & (np.arange(len(share)) < len(share) - 100)
     )
     assert signals.usable[inner].all()
+
+
+def test_a_force_sensor_is_explained_by_its_own_column_held_once(simulated, ch4_rig):
+    signals, _ = _signals(simulated, ch4_rig)
+    assert np.shares_memory(signals["explained"], signals["F"])
+    np.testing.assert_array_equal(signals["explained"], signals["F"])

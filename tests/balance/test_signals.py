@@ -50,3 +50,12 @@ def test_what_is_cached_in_a_scope_is_dropped_after_it():
         assert ("dropped",) in signals.cache
     assert ("kept",) in signals.cache and ("dropped",) not in signals.cache
     assert signals.cache["list"] == [1]
+
+
+def test_new_columns_are_held_once_and_the_set_they_came_from_is_unchanged():
+    signals = signals_with()
+    column = 2 * signals["P"]
+    doubled = signals.with_columns(P=column)
+    assert np.shares_memory(doubled["P"], column)  # taken as given: a long log's column once
+    np.testing.assert_array_equal(signals["P"] * 2, doubled["P"])
+    assert not np.shares_memory(signals["P"], column)

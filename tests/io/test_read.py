@@ -204,6 +204,23 @@ def test_long_log_loads_fast(tmp_path):
     assert len(log) == n and log.duration == pytest.approx(59.999, abs=1e-9)
 
 
+def test_a_bad_cell_in_a_later_parse_chunk_is_named_by_row_and_line(tmp_path, recwarn):
+    # the parser reads in chunks: the column is float in the first ones, mixed in the last
+    n = 300_000
+    lines = ["time_ms,p_kpa,pos_mm", *(f"{i},1.5,2.5" for i in range(n))]
+    lines[n - 10 + 1] = f"{n - 10},1.5,oops"
+    path = tmp_path / "long.csv"
+    path.write_text("\n".join(lines) + "\n")
+    message = read_error(path)
+    assert message.startswith(
+        f"column 'pos_mm' (channel x): row {n - 9} (line {n - 8}): non-numeric value 'oops'"
+    )
+    assert not [w for w in recwarn if "mixed types" in str(w.message)]
+    lines[n - 10 + 1] = f"{n - 10},1.5,2.5"
+    path.write_text("\n".join(lines) + "\n")
+    assert read_log(path, NAMED)["x"][-10] == 2.5e-3
+
+
 # -- text formats and their one-line hints (issue 13, item 8) -----------------------------------
 def read_error(path, columns=NAMED) -> str:
     """The one-line LogError message of ``read_log``, without the ``<path>: `` prefix."""

@@ -390,3 +390,64 @@ def test_the_residual_autocovariance_is_statsmodels_acovf() -> None:
         gamma, _, _ = residual_correlation(residual)
         expected = acovf(residual, adjusted=False, demean=False, fft=True, nlag=max(n // 10, 1))
         np.testing.assert_allclose(gamma, expected, rtol=1e-9, atol=1e-12 * expected[0])
+
+
+# -- a long log's design ---------------------------------------------------------------------------
+class _Products(dict):
+    """Monomial columns as a family gives them: each by name, and which are products row by row."""
+
+    def product(self, name: str) -> dict[str, int] | None:
+        return dict(Term.parse(name).powers)
+
+
+def test_the_design_by_row_blocks_is_the_dense_design_and_fits_identically() -> None:
+    from hmid.models._lstsq import BLOCK, RowBlocks, tall_lstsq
+
+    rng = np.random.default_rng(4)
+    n = 2 * BLOCK + 123
+    dense = rng.normal(size=(n, 5))
+    blocks = RowBlocks(n, [lambda rows, k=k: dense[rows, k] for k in range(5)])
+    assert blocks.shape == dense.shape
+    np.testing.assert_array_equal(blocks[BLOCK - 7 : BLOCK + 9], dense[BLOCK - 7 : BLOCK + 9])
+    np.testing.assert_array_equal(np.asarray(blocks), dense)
+    params = rng.normal(size=5)
+    np.testing.assert_allclose(blocks @ params, dense @ params, rtol=0, atol=1e-12)
+    y = dense @ params + rng.normal(size=n)
+    a, b = tall_lstsq(blocks, y), tall_lstsq(dense, y)
+    np.testing.assert_array_equal(a.params, b.params)
+    np.testing.assert_array_equal(a.r, b.r)
+    np.testing.assert_allclose(a.resid, b.resid, rtol=0, atol=1e-12)
+
+
+def test_products_computed_by_row_blocks_give_the_fit_of_held_columns() -> None:
+    terms = variant_terms("cubic_xvP")
+    X, y = sample(terms, true_coefficients(terms), seed=5, n=3000)
+    cols = {k: X[k].to_numpy() for k in X}
+    names = [t.name for t in terms if sum(p for _, p in t.powers) > 1]
+    held = {name: Term.parse(name).evaluate(cols) for name in names}
+    by_rows = PolynomialModel("cubic_xvP").fit(X, y, monomials=_Products(held))
+    whole = PolynomialModel("cubic_xvP").fit(X, y, monomials=held)
+    np.testing.assert_allclose(by_rows.coef_, whole.coef_, rtol=1e-12)
+    np.testing.assert_allclose(by_rows.conf_int_, whole.conf_int_, rtol=1e-12)
+
+
+def test_a_long_fit_holds_the_columns_it_must_not_the_whole_design() -> None:
+    import tracemalloc
+
+    terms = variant_terms("cubic_xvP")  # 16 columns; the dense design alone is 16 n floats
+    X, y = sample(terms, true_coefficients(terms), seed=6, n=400_000)
+    cols = {k: X[k].to_numpy() for k in X}
+    products = _Products({t.name: t.evaluate(cols) for t in terms if t.degree > 1})
+    model = PolynomialModel("cubic_xvP")
+    small = X.iloc[:500]
+    model.fit(small, y[:500])  # the lazy imports, before the count
+    tracemalloc.start()
+    try:
+        model.fit(X, y, monomials=products)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    # the dense design alone was 16 columns (the peak 25 above the imports); now the residual's
+    # spectrum (2 n) is the largest part
+    assert peak < 12 * y.nbytes, f"peak {peak / y.nbytes:.1f} columns"
+    assert model.coef_.size == len(terms) and np.isfinite(model.conf_int_).all()
