@@ -44,13 +44,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from functools import partial
 
 import numpy as np
 import pandas as pd
 
 from hmid.errors import ConfigError, SignalError
 from hmid.intervals import IntervalNote
+from hmid.models._design import row_design
 from hmid.models._intervals import (
     autocov_covariance,
     hac_covariance,
@@ -101,19 +101,6 @@ FORCE_UNIT = "N"
 
 def _rows(X: Mapping[str, np.ndarray]) -> int:
     return len(next(iter(X.values()))) if X else 0
-
-
-def _product(arrays, powers: Mapping[str, int], factor: float, rows: slice) -> np.ndarray:
-    # the balance's product of smoothed channels (ChannelTerm), on these rows alone
-    values = np.ones(len(arrays[next(iter(powers))][rows]))
-    for channel, power in powers.items():
-        values = values * arrays[channel][rows] ** power
-    return values / factor
-
-
-def _evaluated(term: Term, arrays, scales, rows: slice) -> np.ndarray:
-    n = len(next(iter(arrays.values()))[rows]) if arrays else rows.stop - rows.start
-    return term.evaluate({v: arrays[v][rows] for v in term.variables}, scales, n)
 
 
 class PolynomialModel(ForceModel):
@@ -199,22 +186,7 @@ class PolynomialModel(ForceModel):
             del self._monomials
 
     def _design(self, X: Mapping[str, np.ndarray], scales: Mapping[str, float]) -> RowBlocks:
-        """The design by blocks of rows: only the columns smoothed after their product (which
-        need whole segments) are held whole, the others computed block by block."""
-        given = getattr(self, "_monomials", {})
-        local = getattr(given, "product", lambda name: None)
-        arrays = {v: np.asarray(X[v], dtype=float) for v in X}
-        columns = []
-        for term in self._terms:
-            factor = term.scale_factor(scales)
-            powers = local(term.name) if term.name in given else None
-            if term.name in given and powers is None:
-                columns.append((np.asarray(given[term.name], float) / factor).__getitem__)
-            elif term.name in given:
-                columns.append(partial(_product, arrays, powers, factor))
-            else:
-                columns.append(partial(_evaluated, term, arrays, scales))
-        return RowBlocks(_rows(X), columns)
+        return row_design(self._terms, X, scales, getattr(self, "_monomials", {}))
 
     def _columns(self, X: Mapping[str, np.ndarray], scales: Mapping[str, float]):
         """The design's columns one at a time (``_monomials`` first, where given)."""
