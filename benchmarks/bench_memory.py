@@ -6,8 +6,9 @@ separate process; its peak resident memory comes from ``os.wait4`` and is set ag
 float64 size (rows x 4 channels x 8 bytes), the stage cache against the CSV's size.
 
 Targets (issue "Trust", item 10): peak RSS <= 4x the log's float64 size, cache <= the input size.
-The target is judged on the whole peak; ``above base / float64`` also shows the part the log
-adds, over the same run on a 20,000-row log (the interpreter and its libraries, about 0.3 GB).
+The peak is judged twice: whole, and above the same run's peak on a 20,000-row log (the
+interpreter and its libraries, about 0.2 GB: by itself 6x a 1 M-row log's float64 size, so at
+1 M rows only the part the log adds can meet the target).
 
     python benchmarks/bench_memory.py --rows 1000000 10000000
 """
@@ -112,6 +113,7 @@ def main() -> None:
             print(pd.DataFrame(rows).to_string(index=False, float_format="%.3g"), flush=True)
     table = pd.DataFrame(rows)
     table["peak <= 4x"] = table["peak / float64"] <= 4.0
+    table["above base <= 4x"] = table["above base / float64"] <= 4.0
     table["cache <= csv"] = table["cache / csv"] <= 1.0
     print()
     print(markdown_table(table, ".3g"))

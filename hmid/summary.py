@@ -6,6 +6,7 @@ glance whether the logs cover the operating range and whether the loader flagged
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -44,26 +45,39 @@ class LogSummary:
 
 def summarize(name: str, role: str, pieces: list[Log] | tuple[Log, ...], channels) -> LogSummary:
     """Summary of a log's pieces that went through :func:`hmid.denoise.denoise_log`."""
-    t = np.concatenate([p.t for p in pieces])
+    # reduced piece by piece: a long log's channels are never copied into one array
     present = [c for c in channels if all(c in p for p in pieces)]
-    values = {c: np.concatenate([p[c] for p in pieces]) for c in present}
-    v = np.concatenate([p["v"] for p in pieces]) if all("v" in p for p in pieces) else None
-    a = np.concatenate([p["a_est"] for p in pieces]) if all("a_est" in p for p in pieces) else None
-    duration = float(sum(p.duration for p in pieces))
+    moving = all("v" in p for p in pieces)
+    accel = all("a_est" in p for p in pieces)
+    samples = sum(len(p) for p in pieces)
+    gaps = [float(np.max(np.diff(p.t))) for p in pieces if len(p) > 1]
+    gaps += [float(b.t[0] - a.t[-1]) for a, b in itertools.pairwise(pieces)]
     return LogSummary(
         name=name,
         role=role,
         pieces=len(pieces),
-        samples=len(t),
-        duration_s=duration,
+        samples=samples,
+        duration_s=float(sum(p.duration for p in pieces)),
         rate_hz=float(np.median([p.sample_rate for p in pieces])),
-        worst_gap_s=float(np.max(np.diff(t))) if len(t) > 1 else 0.0,
-        ranges={c: (float(np.min(y)), float(np.max(y))) for c, y in values.items()},
-        peak_speed=None if v is None else float(np.max(np.abs(v))),
-        peak_accel=None if a is None else float(np.max(np.abs(a))),
-        at_rest_fraction=None if v is None else float(np.mean(np.abs(v) < 1e-3)),
+        worst_gap_s=max(gaps) if samples > 1 else 0.0,
+        ranges={
+            c: (min(float(np.min(p[c])) for p in pieces), max(float(np.max(p[c])) for p in pieces))
+            for c in present
+        },
+        peak_speed=_peak(pieces, "v") if moving else None,
+        peak_accel=_peak(pieces, "a_est") if accel else None,
+        at_rest_fraction=(
+            sum(int(np.count_nonzero(np.abs(p["v"]) < 1e-3)) for p in pieces) / samples
+            if moving
+            else None
+        ),
         flags=tuple(f for p in pieces[:1] for f in p.flags),
     )
+
+
+def _peak(pieces, channel: str) -> float:
+    """max |channel| over the pieces, without an array of absolute values."""
+    return max(max(float(np.max(p[channel])), -float(np.min(p[channel]))) for p in pieces)
 
 
 def markdown(summaries: list[LogSummary], units: dict[str, str], title: str) -> str:

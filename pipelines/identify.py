@@ -45,11 +45,13 @@ STAGES = (
         ("split", "fit"),
         lambda c: {"loop": c.loop.model_dump(mode="json") if c.loop else None},
     ),
+    Stage("rows", s.rows, ("split",), store=False),
 )
 
 
-#: What the report reads: the logs, as loaded and as smoothed, are let go once the signals exist.
-REPORTED = ("inventory", "friction", "split", "fit", "compare", "loop")
+#: What the report reads: the logs, as loaded and as smoothed, are let go once the signals exist,
+#: and the signals once the last stage has read them.
+REPORTED = ("inventory", "friction", "rows", "fit", "compare", "loop")
 
 
 def analyse(config: ExperimentConfig, stages: tuple[str, ...], cache: Path, *, force=False) -> dict:

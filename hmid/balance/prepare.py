@@ -24,6 +24,7 @@ from hmid.balance.signals import Signals, raw
 from hmid.errors import ConfigError
 from hmid.io.log import Log
 from hmid.signal import Differentiator, Smoother
+from hmid.signal.blocks import BLOCK, local_smoother, smoothed_span
 from hmid.signal.reach import impulse_reach
 
 #: Channel names of the denoised log for the derived signals (raw estimate, smoothed).
@@ -33,7 +34,9 @@ _DERIVED = {"v": ("v", "v_s"), "a": ("a_est", "a_s")}
 def _frame(rig: RigSection, name: str, piece: Log, t0: float) -> dict:
     columns = {"log": name, "t": piece.t - t0}
     for channel in rig.log_channels:
-        columns[raw(channel)], columns[channel] = piece[channel], piece[f"{channel}_s"]
+        if channel in rig.model_channels:  # no term reads the explained quantity's channels
+            columns[raw(channel)] = piece[channel]
+        columns[channel] = piece[f"{channel}_s"]
     if rig.position is not None:
         for channel, (estimate, smoothed) in _DERIVED.items():
             columns[raw(channel)], columns[channel] = piece[estimate], piece[smoothed]
@@ -70,8 +73,15 @@ STOPPED_SHARE = 0.02
 def _usable(t, v_raw, smoother, ends: int, v_deadband: float, exclude_stuck: bool):
     usable = np.ones(len(t), dtype=bool)
     if exclude_stuck and v_raw is not None:
-        stopped = (np.abs(v_raw) < v_deadband).astype(float)
-        usable &= (stopped == 0) & (smoother(t, stopped) <= STOPPED_SHARE)
+
+        def stopped(rows: slice) -> np.ndarray:
+            return (np.abs(v_raw[rows]) < v_deadband).astype(float)
+
+        local = local_smoother(smoother, t)
+        for lo in range(0, len(t), BLOCK):  # a long log's share is never held whole
+            hi = min(lo + BLOCK, len(t))
+            share = smoothed_span(local, len(t), stopped, lo, hi)
+            usable[lo:hi] &= (stopped(slice(lo, hi)) == 0) & (share <= STOPPED_SHARE)
     usable[: min(ends, len(usable))] = False
     usable[max(len(usable) - ends, 0) :] = False
     return usable
@@ -127,9 +137,13 @@ def prepare(
         if getattr(term, "source", None) == "free_fall":
             if free_fall_law is None:
                 raise ConfigError(f"rig.balance: term {term.name!r} needs the free-fall friction")
-            law = free_fall_law(signals[raw(term.channel)])
-            known += term.sign * signals.smooth(law)
+            v = signals[raw(term.channel)]
+            law = signals.smooth_of(lambda rows, v=v: free_fall_law(v[rows]))
+            law *= term.sign
+            known += law
+            del law
         else:
             value = rig.term_value(term, units)
             known += value * term.columns(signals, None).values[:, 0]
-    return signals.with_columns(explained=explained, target=explained - known)
+    target = np.subtract(explained, known, out=known)  # a long log's known part is let go
+    return signals.with_columns(explained=explained, target=target)

@@ -30,6 +30,7 @@ import numpy as np
 import pandas as pd
 
 from hmid.errors import ConfigError
+from hmid.signal.blocks import local_smoother, smoothed_by_blocks, smoothed_span
 
 REQUIRED = ("log", "segment", "t", "target", "usable", "train", "validation")
 
@@ -194,14 +195,20 @@ class Signals:
         return all(self.versions.get(column) == version for column, version in deps)
 
     def segments(self) -> Iterator[np.ndarray]:
-        """Row indices of each segment, in order (found once per signals: every smoothing and
-        every memory scan walks them)."""
+        """Row indices of each segment, in order (made as they are read: a long log's are not
+        held)."""
+        return (np.arange(start, stop) for start, stop in self.bounds())
 
-        def split() -> tuple[np.ndarray, ...]:
+    def bounds(self) -> tuple[tuple[int, int], ...]:
+        """``(start, stop)`` rows of each segment, in order (found once per signals: every
+        smoothing and every memory scan walks them)."""
+
+        def split() -> tuple[tuple[int, int], ...]:
             ids = self["segment"]
-            return tuple(np.split(np.arange(len(ids)), np.flatnonzero(np.diff(ids)) + 1))
+            edges = [0, *(np.flatnonzero(ids[1:] != ids[:-1]) + 1).tolist(), len(ids)]
+            return tuple(itertools.pairwise(edges)) if len(ids) else ()
 
-        return iter(self.derived(("segments",), split))
+        return self.derived(("segments",), split)
 
     @property
     def dt(self) -> float:
@@ -224,12 +231,50 @@ class Signals:
 
         def bound() -> list:  # the smoother on each segment's time base, checked once
             t = self["t"]
-            return [(rows, self.smoother.on(t[rows])) for rows in self.segments()]
+            return [(slice(*b), self.smoother.on(t[slice(*b)])) for b in self.bounds()]
 
         out = np.empty(len(self))
         for rows, smooth in self.derived(("smoothers",), bound):
             out[rows] = smooth(values[rows])
         return out
+
+    def smooth_at(self, values_of: Callable[[slice], np.ndarray], rows: np.ndarray) -> np.ndarray:
+        """``smooth(values)[rows]`` (``rows`` increasing), where ``values_of(s)`` gives the
+        values on a slice ``s`` of rows: evaluated on the rows' span and the smoother's margin
+        around it (:meth:`~hmid.signal.Smoother.local`) rather than on whole segments, so that
+        a long log's column is computed block by block."""
+        rows = np.asarray(rows)
+        if len(rows) == 0:
+            return np.empty(0)
+        lo, hi = int(rows[0]), int(rows[-1]) + 1
+        if self.smoother is None:
+            return np.asarray(values_of(slice(lo, hi)), dtype=float)[rows - lo]
+        out = np.empty(len(rows))
+        for start, stop, local in self._local_smoothers():
+            if start < hi and stop > lo:
+                first, last = np.searchsorted(rows, [start, stop])
+                a, b = max(lo, start), min(hi, stop)
+                span = smoothed_span(local, stop - start, _shifted(values_of, start), a - start,
+                                     b - start)  # fmt: skip
+                out[first:last] = span[rows[first:last] - a]
+        return out
+
+    def smooth_of(self, values_of: Callable[[slice], np.ndarray]) -> np.ndarray:
+        """:meth:`smooth` of the values ``values_of(s)`` gives on each slice ``s`` of rows,
+        computed block by block: they are never held whole."""
+        if self.smoother is None:
+            return np.asarray(values_of(slice(0, len(self))), dtype=float)
+        out = np.empty(len(self))
+        for start, stop, local in self._local_smoothers():
+            out[start:stop] = smoothed_by_blocks(local, stop - start, _shifted(values_of, start))
+        return out
+
+    def _local_smoothers(self) -> list:
+        def bound() -> list:  # each segment's (start, stop, local smoother), checked once
+            t = self["t"]
+            return [(a, b, local_smoother(self.smoother, t[a:b])) for a, b in self.bounds()]
+
+        return self.derived(("local smoothers",), bound)
 
     def unit(self, channel: str) -> str:
         if channel not in self.units:
@@ -267,8 +312,15 @@ class Signals:
             usable=self.usable & keep, train=self.train & keep, validation=self.validation & keep
         )
 
-    def role_frame(self, role: str, columns: tuple[str, ...]) -> pd.DataFrame:
-        """The rows of ``role`` with ``columns`` (plus log and t), in order."""
+    def role_frame(self, role: str, columns: tuple[str, ...], keys: bool = True) -> pd.DataFrame:
+        """The rows of ``role`` with ``columns`` (plus log and t unless ``keys`` is False), in
+        order."""
         keep = self.rows(role)
-        _noted(tuple((c, self.versions.get(c)) for c in ("log", "t", *columns)))
-        return self.frame.loc[keep, ["log", "t", *columns]].reset_index(drop=True)
+        names = ["log", "t", *columns] if keys else list(columns)
+        _noted(tuple((c, self.versions.get(c)) for c in names))
+        return self.frame.loc[keep, names].reset_index(drop=True)
+
+
+def _shifted(values_of: Callable[[slice], np.ndarray], start: int):
+    """``values_of`` on slices counted from row ``start``."""
+    return lambda s: values_of(slice(start + s.start, start + s.stop))

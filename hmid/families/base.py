@@ -43,13 +43,19 @@ class FitData:
         return self.signals.rows(self.role)
 
     @property
+    def indices(self) -> np.ndarray:
+        """This role's row numbers, increasing (found once per signals and role)."""
+        return self.signals.derived(("indices", self.role), lambda: np.flatnonzero(self.rows))
+
+    @property
     def y(self) -> np.ndarray:
         """``target`` on this role's rows."""
         return self.signals.target[self.rows]
 
-    def frame(self, columns: tuple[str, ...]) -> pd.DataFrame:
-        """This role's rows: log, t and ``columns`` (smoothed channels)."""
-        return self.signals.role_frame(self.role, columns)
+    def frame(self, columns: tuple[str, ...], keys: bool = True) -> pd.DataFrame:
+        """This role's rows: log, t (unless ``keys`` is False) and ``columns`` (smoothed
+        channels)."""
+        return self.signals.role_frame(self.role, columns, keys)
 
     @property
     def slot_sign(self) -> int:

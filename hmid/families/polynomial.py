@@ -4,8 +4,9 @@ of the balance."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from functools import partial
 from typing import Annotated, Literal
 
 import numpy as np
@@ -13,6 +14,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from hmid.balance import RigSection, Structure
 from hmid.balance.kinds import ChannelTerm, ConstantTerm
+from hmid.balance.signals import raw
 from hmid.families.base import FamilySpec, FitContext, FitData, Fitted, FittedModel
 
 THESIS_VARIANTS = ("quadratic_xv", "cubic_xv", "quadratic_xvP", "cubic_xvP")
@@ -84,7 +86,8 @@ class PolynomialSpec(FamilySpec):
                 units=units,
                 target_unit=units["target"],
             )
-            model.fit(data.frame(variables), data.slot_sign * data.y,
+            y = data.y if data.slot_sign == 1 else data.slot_sign * data.y
+            model.fit(data.frame(variables, keys=False), y,
                       monomials=smoothed_monomials(model.term_set, data))  # fmt: skip
             fitted.append(
                 Fitted(
@@ -112,7 +115,8 @@ class FittedPolynomial(FittedModel):
 
     def predict(self, data: FitData) -> np.ndarray:
         monomials = smoothed_monomials(self.model.term_set, data)
-        return self.sign * self.model.predict(data.frame(self.variables), monomials=monomials)
+        predicted = self.model.predict(data.frame(self.variables, keys=False), monomials=monomials)
+        return predicted if self.sign == 1 else self.sign * predicted
 
     def structure(self) -> Structure:
         terms = []
@@ -145,14 +149,34 @@ class _Monomials(Mapping):
         column = ChannelTerm(name="c", channel=name).columns(self.data.signals, None)
         return column.values[self.data.rows, 0]
 
-    def product(self, name: str) -> dict[str, int] | None:
-        """The channel powers of ``name`` if its column is their product row by row (each
-        channel as smoothed), so that it can be computed on any block of rows; else None."""
-        term = ChannelTerm(name="c", channel=name)
-        return term.powers() if term.of_smoothed(self.data.signals) else None
+    def block(self, name: str) -> Callable[[slice], np.ndarray]:
+        """``name``'s column on any block of this data's rows (a slice of them), computed there
+        alone: a long log's design is never held whole."""
+        term, signals = ChannelTerm(name="c", channel=name), self.data.signals
+        index = self.data.indices
+        powers = term.powers()
+        if term.of_smoothed(signals):  # a product of smoothed channels, row by row
+            return partial(_product_at, {c: signals[c] for c in powers}, powers, index)
+        raws = {c: signals[raw(c)] for c in powers}  # smoothed after the product
+        return lambda rows: signals.smooth_at(partial(_product, raws, powers), index[rows])
+
+    def __contains__(self, name: object) -> bool:  # Mapping's would compute the column
+        return name in self.names
 
     def __iter__(self):
         return iter(self.names)
 
     def __len__(self) -> int:
         return len(self.names)
+
+
+def _product(columns, powers: Mapping[str, int], rows) -> np.ndarray:
+    # as ChannelTerm.columns multiplies them, on these rows alone
+    values = np.ones(len(next(iter(columns.values()))[rows]))
+    for channel, power in powers.items():
+        values = values * columns[channel][rows] ** power
+    return values
+
+
+def _product_at(columns, powers: Mapping[str, int], index: np.ndarray, rows: slice) -> np.ndarray:
+    return _product(columns, powers, index[rows])

@@ -97,20 +97,24 @@ class Log:
     def sample_rate(self) -> float:
         """Median sampling rate in Hz (robust to occasional gaps)."""
         dt = np.diff(self.data["t"].to_numpy())
-        return float(1.0 / np.median(dt)) if len(dt) else float("nan")
+        # dt is this call's own: the median may reorder it rather than copy it
+        return float(1.0 / np.median(dt, overwrite_input=True)) if len(dt) else float("nan")
 
     # -- derived logs -----------------------------------------------------------------------
     def with_channels(self, units: Mapping[str, str] | None = None, **channels: np.ndarray) -> Log:
-        """A new log with channels added or replaced (same length as this one)."""
-        frame = self.data.copy(deep=False)  # copy-on-write: this log's columns stay as they are
+        """A new log with channels added or replaced (same length as this one). The new
+        channels' arrays are taken as they are, not copied (a long log's are held once): the
+        caller lets go of them."""
+        added = {}
         for name, values in channels.items():
             values = np.asarray(values, dtype="float64")
-            if values.shape != (len(frame),):
+            if values.shape != (len(self.data),):
                 raise LogError(
                     f"{self.source}: channel {name!r} has shape {values.shape}, "
-                    f"expected ({len(frame)},)"
+                    f"expected ({len(self.data)},)"
                 )
-            frame[name] = values
+            added[name] = pd.Series(values, index=self.data.index, copy=False)
+        frame = self.data.assign(**added)  # copy-on-write: this log's columns stay as they are
         merged = dict(self.units) | dict(units or {})
         return Log(frame, self.source, merged, self.flags, self.meta)
 

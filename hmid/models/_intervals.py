@@ -24,11 +24,14 @@ def residual_correlation(
 
     # statsmodels' acovf(adjusted=False, demean=False, fft=True), to rounding, at a quarter of
     # its cost: every fit of every family measures its residual's correlation
-    n = residual.size
-    size = fft.next_fast_len(2 * n - 1, real=True)
+    n, lags = residual.size, max(residual.size // 10, 1)
+    # padded past the last lag, not to 2n: the circular correlation is the linear one up there
+    size = fft.next_fast_len(n + lags, real=True)
     spectrum = fft.rfft(residual, size)
-    power = spectrum.real**2 + spectrum.imag**2
-    gamma = fft.irfft(power, size)[: max(n // 10, 1) + 1] / n
+    power = spectrum.real**2
+    power += spectrum.imag**2
+    del spectrum  # a long residual's transforms are the fit's largest arrays: one at a time
+    gamma = fft.irfft(power, size, overwrite_x=True)[: lags + 1] / n
     if not gamma[0] > 0:  # an exact fit
         return gamma, 0, 1.0
     taus = 2.0 * np.cumsum(gamma / gamma[0]) - 1.0

@@ -69,8 +69,10 @@ class RowBlocks:
         return out
 
     def __matmul__(self, params: np.ndarray) -> np.ndarray:
-        n = self.shape[0]
-        return np.concatenate([self[i : i + BLOCK] @ params for i in range(0, n, BLOCK)] or [[]])
+        out = np.empty(self.shape[0])
+        for i in range(0, self.shape[0], BLOCK):
+            out[i : i + BLOCK] = self[i : i + BLOCK] @ params
+        return out
 
     def __array__(self, dtype=None, copy=None) -> np.ndarray:
         return self[:] if dtype is None else self[:].astype(dtype)

@@ -188,15 +188,6 @@ class PolynomialModel(ForceModel):
     def _design(self, X: Mapping[str, np.ndarray], scales: Mapping[str, float]) -> RowBlocks:
         return row_design(self._terms, X, scales, getattr(self, "_monomials", {}))
 
-    def _columns(self, X: Mapping[str, np.ndarray], scales: Mapping[str, float]):
-        """The design's columns one at a time (``_monomials`` first, where given)."""
-        n, given = _rows(X), getattr(self, "_monomials", {})
-        for term in self._terms:
-            if term.name in given:
-                yield np.asarray(given[term.name], float) / term.scale_factor(scales)
-            else:
-                yield term.evaluate(X, scales, n)
-
     def _fit(self, X: Mapping[str, np.ndarray], y: np.ndarray) -> None:
         from scipy import stats
         from statsmodels.stats.stattools import durbin_watson
@@ -320,10 +311,7 @@ class PolynomialModel(ForceModel):
         return tuple(found)
 
     def _predict(self, X: Mapping[str, np.ndarray]) -> np.ndarray:
-        out = np.zeros(_rows(X))
-        for coefficient, column in zip(self.params_, self._columns(X, self.scales_), strict=True):
-            out += coefficient * column  # no design: a long log's prediction needs one column
-        return out
+        return self._design(X, self.scales_) @ self.params_  # by blocks of rows
 
     # -- reporting ------------------------------------------------------------------------------
     def coefficient_table(self) -> pd.DataFrame:

@@ -181,7 +181,7 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
     tables.mkdir(exist_ok=True)
     figures.mkdir(exist_ok=True)
     comparison, fitted, estimate = artifacts["compare"], artifacts["fit"], artifacts["friction"]
-    split = artifacts["split"]
+    rows = artifacts["rows"]
     units = log_units(config)
     unit, label = units["target"], config.rig.explained.name
     best = comparison.scores.iloc[0]
@@ -244,7 +244,7 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
             friction_summary += (("friction law", estimate.law.message()),)
 
     flags = list(inventory.flags)
-    n_train, n_val = split.n_train, split.n_validation
+    n_train, n_val = rows.train, rows.validation
     error_kind = f"one-step: {label} predicted from the measured signals at each sample"
     metrics = {
         "experiment": config.name,
@@ -257,7 +257,7 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
         "parameters": {m.name: _parameters(m) for m in fitted if m.family == "balance"},
         "sign_findings": [f.to_dict() for f in findings],
         "friction": None if estimate is None else estimate.to_dict(),
-        "rows": {"train": n_train, "validation": n_val, "excluded": split.excluded},
+        "rows": {"train": n_train, "validation": n_val, "excluded": rows.excluded},
         "flags": flags,
     }
     if metrics_loop is not None:
@@ -284,7 +284,7 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
             ("verdict", _verdict(best)),
             *sign_summary,
             *friction_summary,
-            ("rows: train / held-out / excluded", f"{n_train} / {n_val} / {split.excluded}"),
+            ("rows: train / held-out / excluded", f"{n_train} / {n_val} / {rows.excluded}"),
             *loop_summary(artifacts.get("loop")),
         ),
         sections=(

@@ -179,8 +179,9 @@ class Split:
 
 def split(config: ExperimentConfig, signals: Signals) -> Split:
     """Training and held-out rows, the same for every family."""
-    frame = signals.frame
-    lengths = frame.groupby("log", sort=False).size().to_dict()
+    log, lengths = signals.frame["log"], {}
+    for start, stop in signals.bounds():  # a segment is a piece of one log; logs in order
+        lengths[log.iat[start]] = lengths.get(log.iat[start], 0) + stop - start
     masks = validation_masks(lengths, config.split)
     # a log's pieces are consecutive rows, logs in order of first appearance
     validation = np.concatenate([masks[name] for name in lengths])
@@ -192,6 +193,19 @@ def split(config: ExperimentConfig, signals: Signals) -> Split:
                 "split.validation_fraction or split.validation_logs"
             )
     return Split(out, int((~out.usable).sum()))
+
+
+@dataclass(frozen=True)
+class Rows:
+    """The split's row counts: what the report says of it, once the rows are let go."""
+
+    train: int
+    validation: int
+    excluded: int
+
+
+def rows(config: ExperimentConfig, split: Split) -> Rows:
+    return Rows(split.n_train, split.n_validation, split.excluded)
 
 
 def fit(

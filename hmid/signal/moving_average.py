@@ -204,6 +204,14 @@ class Smoother(abc.ABC):
         ``t`` alone checked and computed once (many signals share one time base)."""
         return partial(self, t)
 
+    def local(self, t: np.ndarray) -> tuple[int, Callable[[np.ndarray], np.ndarray]] | None:
+        """``(margin, smooth)`` for a filter that reads a bounded neighbourhood: ``smooth(y)``
+        smooths any contiguous stretch ``y`` of samples on ``t``'s grid as ``on(t)`` would, and
+        equals ``on(t)(whole)`` on that stretch (up to rounding) at samples ``margin`` or more
+        from where it was cut out of the whole; a stretch of ``margin`` samples or more fits the
+        filter. None for a filter that reads the whole signal (the default)."""
+        return None
+
 
 @dataclass(frozen=True)
 class Identity(Smoother):
@@ -215,6 +223,9 @@ class Identity(Smoother):
         y = as_signal(y)
         as_time(t, y.size)
         return y.copy()
+
+    def local(self, t: np.ndarray) -> tuple[int, Callable[[np.ndarray], np.ndarray]]:
+        return 0, lambda y: as_signal(y).copy()
 
 
 @dataclass(frozen=True)
@@ -251,16 +262,28 @@ class MovingAverage(Smoother):
 
     def on(self, t: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
         t = as_time(t, np.size(t))
-        dt = median_dt(t) if self.window.seconds is not None else None
-        n = self.window.samples(dt, odd=self.mode == "centred")
-        check_fits(n, t.size, f"a {self.mode} moving average of {n} samples")
+        n = self._samples(t)
 
         def smooth(y: np.ndarray) -> np.ndarray:
             y = as_signal(y)
             if y.size != t.size:
                 raise SignalError(f"t has {t.size} samples but the signal has {y.size}")
-            for _ in range(self.passes):
-                y = _moving_average(y, n, self.mode, self.edge)
-            return y
+            return self._passes(y, n)
 
         return smooth
+
+    def local(self, t: np.ndarray) -> tuple[int, Callable[[np.ndarray], np.ndarray]]:
+        # each pass reads at most n - 1 samples to one side (centred: (n - 1) / 2 each way)
+        n = self._samples(as_time(t, np.size(t)))
+        return self.passes * n, lambda y: self._passes(as_signal(y), n)
+
+    def _samples(self, t: np.ndarray) -> int:
+        dt = median_dt(t) if self.window.seconds is not None else None
+        n = self.window.samples(dt, odd=self.mode == "centred")
+        check_fits(n, t.size, f"a {self.mode} moving average of {n} samples")
+        return n
+
+    def _passes(self, y: np.ndarray, n: int) -> np.ndarray:
+        for _ in range(self.passes):
+            y = _moving_average(y, n, self.mode, self.edge)
+        return y

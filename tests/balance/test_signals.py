@@ -59,3 +59,48 @@ def test_new_columns_are_held_once_and_the_set_they_came_from_is_unchanged():
     assert np.shares_memory(doubled["P"], column)  # taken as given: a long log's column once
     np.testing.assert_array_equal(signals["P"] * 2, doubled["P"])
     assert not np.shares_memory(signals["P"], column)
+
+
+def test_smoothing_at_some_rows_is_smoothing_the_whole_there():
+    import pandas as pd
+
+    from hmid.balance.signals import Signals
+    from hmid.signal import MovingAverage, Window
+
+    rng = np.random.default_rng(3)
+    lengths = (5000, 37, 2600)  # a segment shorter than the margin is smoothed whole
+    t = np.concatenate([np.arange(n) * 1e-3 * (1 + 0.1 * k) for k, n in enumerate(lengths)])
+    frame = pd.DataFrame(
+        {
+            "log": np.repeat(["a", "a", "b"], lengths),
+            "segment": np.repeat([0, 1, 2], lengths),
+            "t": t,
+            "x": rng.normal(size=t.size),
+            "target": np.zeros(t.size),
+        }
+    )
+    values = np.cumsum(rng.normal(size=t.size))
+    rows = np.sort(rng.choice(t.size, 3000, replace=False))
+    smoothers = (
+        MovingAverage(Window(seconds=0.011)),
+        MovingAverage(Window(seconds=0.011), passes=3),
+        MovingAverage(9, mode="causal"),
+        MovingAverage(9, edge="nan"),
+        MovingAverage(9, edge="reflect"),
+        None,
+    )
+    for smoother in smoothers:
+        signals = Signals.from_frame(frame, {"x": "m", "target": "N"}, smoother=smoother)
+        whole = signals.smooth(values)
+        by_blocks = signals.smooth_of(values.__getitem__)
+        np.testing.assert_allclose(by_blocks, whole, rtol=1e-12, atol=1e-12, err_msg=str(smoother))
+        for pick in (rows, rows[100:400], rows[-5:], np.arange(4990, 5050), np.arange(3)):
+            at = signals.smooth_at(values.__getitem__, pick)
+            np.testing.assert_allclose(
+                at, whole[pick], rtol=1e-12, atol=1e-12, err_msg=str(smoother)
+            )
+    # the check can fail: smoothed without its margin, a stretch differs from the whole there
+    cut = MovingAverage(Window(seconds=0.011)).on(t[100:200])(values[100:200])
+    assert not np.allclose(
+        cut[:3], MovingAverage(Window(seconds=0.011))(t[:5000], values[:5000])[100:103]
+    )

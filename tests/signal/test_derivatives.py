@@ -249,3 +249,20 @@ def test_the_second_difference_is_exact_for_a_parabola_on_uneven_steps():
     t = np.cumsum(np.random.default_rng(3).uniform(0.8e-3, 1.2e-3, 500))
     a = DerivativeOfSmoothed(Identity()).derivative(t, 3.0 * t**2, 2)
     np.testing.assert_allclose(a[1:-1], 6.0, rtol=1e-6)
+
+
+@pytest.mark.parametrize("extra", [1, 2, 3, 777])
+def test_a_long_signal_is_differentiated_by_blocks_to_the_same_numbers(extra):
+    from hmid.signal import DerivativeOfSmoothed
+    from hmid.signal.blocks import BLOCK
+    from hmid.signal.derivatives import _difference
+
+    rng = np.random.default_rng(extra)
+    n = 2 * BLOCK + extra  # a last block of one sample needs its two neighbours
+    t = np.cumsum(rng.uniform(0.95e-3, 1.05e-3, n))
+    x = np.sin(2 * np.pi * 3 * t) + 1e-3 * rng.normal(size=n)
+    differentiator = DerivativeOfSmoothed(MovingAverage(9, passes=3))
+    smoothed = MovingAverage(9, passes=3)(t, x)
+    for order in (1, 2):
+        got = differentiator.derivative(t, x, order)
+        np.testing.assert_array_equal(got, _difference(t, smoothed, order))
