@@ -227,7 +227,8 @@ class SINDyForceModel(ForceModel):
             threshold = path.chosen
         else:
             path, threshold = None, float(self.threshold)
-        xi = stlsq(combine(stats, np.ones(stats.n_blocks)), threshold, alpha, keep=keep)
+        whole = combine(stats, np.ones(stats.n_blocks))  # the R factor of [Z | y]
+        xi = stlsq(whole, threshold, alpha, keep=keep)
         rng = np.random.default_rng(self.seed)
         ensemble = bagging(stats, threshold, self.n_models, rng, alpha=alpha, keep=keep)
         to_physical = y_scale / rms * np.array([f.factor for f in library.features_])
@@ -297,7 +298,8 @@ class SINDyForceModel(ForceModel):
             n_obs=len(y),
             n_params=n_params,
             **fit_statistics(y, fitted, max(n_params, 1)),
-            condition_number=float(np.linalg.cond(Z)),
+            # R's leading block has Z's singular values: no SVD of the whole design
+            condition_number=float(np.linalg.cond(whole[: Z.shape[1], : Z.shape[1]])),
             condition_number_unscaled=None,
             warnings=tuple(warnings_),
         )

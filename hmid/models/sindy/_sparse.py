@@ -85,7 +85,15 @@ class KeepSTLSQ(ps.STLSQ):
     """
 
     def __init__(self, threshold=0.1, alpha=0.0, max_iter=20, keep=None):
-        super().__init__(threshold=threshold, alpha=alpha, max_iter=max_iter, unbias=True)
+        # the compressed problem is float64 and checked upstream: sklearn's input checks in
+        # each ridge solve were a fifth of a fit
+        super().__init__(
+            threshold=threshold,
+            alpha=alpha,
+            max_iter=max_iter,
+            unbias=True,
+            ridge_kw={"check_input": False},
+        )
         self.keep = keep
 
     def _sparse_coefficients(self, dim, ind_nonzero, coef, threshold):

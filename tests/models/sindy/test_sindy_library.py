@@ -1,6 +1,7 @@
 """The feature library: the design built once for fit and transform, duplicate columns dropped."""
 
 import numpy as np
+import pytest
 
 from hmid.models.sindy._library import FeatureLibrary
 
@@ -30,3 +31,24 @@ def test_a_constant_channel_drops_every_column_it_duplicates():
     columns = _columns()
     columns["P"] = np.where(np.arange(5000) % 78 == 0, 3e5, 0.9 * columns["P"])
     assert FeatureLibrary(degree=2).fit(columns).dropped_ == ()
+
+
+@pytest.mark.parametrize(
+    "variables, degree, friction",
+    [(("x", "v", "P"), 3, True), (("x", "v"), 2, False), (("x",), 1, True), (("v", "P"), 5, True)],
+)
+def test_the_design_is_pysindys_own_transform(variables, degree, friction):
+    rng = np.random.default_rng(degree)
+    n = 500
+    columns = {
+        "x": rng.normal(0.05, 0.01, n),
+        "v": rng.normal(0, 0.1, n),
+        "P": rng.normal(2e5, 3e4, n),
+    }
+    library = FeatureLibrary(variables, degree=degree, friction_term=friction)
+    design = library.fit_transform(columns)
+    scaled = [columns[v] / library.scales_[v] for v in variables]
+    if friction:
+        scaled.append(columns["v"] / library.v0)
+    theirs = np.asarray(library._pysindy.transform(np.column_stack(scaled)))
+    np.testing.assert_array_equal(design, theirs[:, library.columns_])
