@@ -60,12 +60,18 @@ class RowBlocks:
     def __init__(self, n: int, columns: Sequence[Callable[[slice], np.ndarray]]) -> None:
         self.columns = tuple(columns)
         self.shape = (n, len(self.columns))
+        self._last: tuple[tuple[int, int], np.ndarray] | None = None
 
     def __getitem__(self, rows: slice) -> np.ndarray:
         start, stop, _ = rows.indices(self.shape[0])
+        if self._last is not None and self._last[0] == (start, stop):
+            return self._last[1]  # a short design is one block: built once for every pass
         out = np.empty((max(stop - start, 0), self.shape[1]))
         for k, column in enumerate(self.columns):
             out[:, k] = column(slice(start, stop))
+        if stop - start <= BLOCK:
+            out.flags.writeable = False
+            self._last = ((start, stop), out)
         return out
 
     def __matmul__(self, params: np.ndarray) -> np.ndarray:
@@ -75,7 +81,10 @@ class RowBlocks:
         return out
 
     def __array__(self, dtype=None, copy=None) -> np.ndarray:
-        return self[:] if dtype is None else self[:].astype(dtype)
+        out = self[:]
+        if dtype is not None and out.dtype != dtype:
+            return out.astype(dtype)
+        return out if out.flags.writeable else out.copy()  # the held block stays as it is
 
 
 def tall_lstsq(exog: np.ndarray | RowBlocks, y: np.ndarray, block: int = BLOCK) -> TallFit:

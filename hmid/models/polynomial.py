@@ -99,10 +99,6 @@ CALIBRATED_TAU = 66.0
 FORCE_UNIT = "N"
 
 
-def _rows(X: Mapping[str, np.ndarray]) -> int:
-    return len(next(iter(X.values()))) if X else 0
-
-
 class PolynomialModel(ForceModel):
     """F_m as a polynomial in x [m], v [m/s], P [Pa] (y in N), fitted by statsmodels OLS; other
     variables with their SI ``units`` (a mapping), a target in ``target_unit``.

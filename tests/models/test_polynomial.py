@@ -456,3 +456,24 @@ def test_a_long_fit_holds_the_columns_it_must_not_the_whole_design() -> None:
     # held whole); now the residual's spectrum (2 n) is the largest part
     assert peak < 11 * y.nbytes, f"peak {peak / y.nbytes:.1f} columns"
     assert model.coef_.size == len(terms) and np.isfinite(model.conf_int_).all()
+
+
+def test_a_design_of_one_block_is_built_once_for_every_pass() -> None:
+    from hmid.models._lstsq import BLOCK, RowBlocks, tall_lstsq
+
+    calls = []
+
+    def column(rows, k):
+        calls.append(k)
+        return np.arange(rows.start, rows.stop, dtype=float) ** k
+
+    for n in (BLOCK, 2 * BLOCK + 5):
+        calls.clear()
+        design = RowBlocks(n, [lambda rows, k=k: column(rows, k) for k in range(2)])
+        fit = tall_lstsq(design, np.ones(n))
+        design @ fit.params
+        blocks = -(-n // BLOCK)
+        # one block: built once for the least squares, its residual and the prediction; a long
+        # design is built again on each pass (never held whole)
+        assert len(calls) == 2 if blocks == 1 else len(calls) > 2 * blocks
+    assert not design[:BLOCK].flags.writeable and np.asarray(design).flags.writeable
