@@ -65,9 +65,10 @@ def block_stats(Z: np.ndarray, y: np.ndarray, blocks: np.ndarray) -> BlockStats:
     for b, (i, j) in enumerate(zip(starts, ends, strict=True)):
         # LAPACK's QR itself (numpy's qr(mode="r") calls the same routine): a third of its
         # cost is numpy's wrapping, paid once per block
-        factor = lapack.dgeqrf(full[i:j])[0]
         rows = min(j - i, p1)
-        r[b, :rows] = np.triu(factor[:rows])
+        r[b, :rows] = lapack.dgeqrf(full[i:j])[0][:rows]
+    below = np.tril_indices(p1, -1)
+    r[:, below[0], below[1]] = 0.0  # below the diagonal: LAPACK's reflectors, not R
     return BlockStats(r, ends - starts)
 
 
