@@ -169,16 +169,24 @@ class ChannelTerm(TermSpec):
 
     def columns(self, signals, value):
         powers = self.powers()
-        values = np.ones(len(signals))
         if self.of_smoothed(signals):
             # linear: smoothing commutes with it; v and a are derivatives of the smoothed
             # position, with no unsmoothed version to evaluate a product on
-            for channel, power in powers.items():
-                values = values * signals[channel] ** power
-            return self._column(signals, values)
-        for channel, power in powers.items():
-            values = values * signals[raw(channel)] ** power
-        return self._column(signals, signals.smooth(values))
+            smoothed = {c: signals[c] for c in powers}
+            return self._column(signals, channel_product(smoothed, powers, slice(None)))
+        unsmoothed = {c: signals[raw(c)] for c in powers}
+        return self._column(
+            signals, signals.smooth(channel_product(unsmoothed, powers, slice(None)))
+        )
+
+
+def channel_product(columns, powers, rows) -> np.ndarray:
+    """The product of ``columns[c] ** powers[c]`` on ``rows`` (a slice or indices), multiplied in
+    the order of ``powers``: what :class:`ChannelTerm` evaluates, on any rows alone."""
+    values = np.ones(len(next(iter(columns.values()))[rows]))
+    for channel, power in powers.items():
+        values = values * columns[channel][rows] ** power
+    return values
 
 
 class CoulombTerm(TermSpec):

@@ -13,7 +13,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from hmid.balance import RigSection, Structure
-from hmid.balance.kinds import ChannelTerm, ConstantTerm
+from hmid.balance.kinds import ChannelTerm, ConstantTerm, channel_product
 from hmid.balance.signals import raw
 from hmid.families.base import FamilySpec, FitContext, FitData, Fitted, FittedModel
 
@@ -158,7 +158,7 @@ class _Monomials(Mapping):
         if term.of_smoothed(signals):  # a product of smoothed channels, row by row
             return partial(_product_at, {c: signals[c] for c in powers}, powers, index)
         raws = {c: signals[raw(c)] for c in powers}  # smoothed after the product
-        return lambda rows: signals.smooth_at(partial(_product, raws, powers), index[rows])
+        return lambda rows: signals.smooth_at(partial(channel_product, raws, powers), index[rows])
 
     def __contains__(self, name: object) -> bool:  # Mapping's would compute the column
         return name in self.names
@@ -170,13 +170,5 @@ class _Monomials(Mapping):
         return len(self.names)
 
 
-def _product(columns, powers: Mapping[str, int], rows) -> np.ndarray:
-    # as ChannelTerm.columns multiplies them, on these rows alone
-    values = np.ones(len(next(iter(columns.values()))[rows]))
-    for channel, power in powers.items():
-        values = values * columns[channel][rows] ** power
-    return values
-
-
 def _product_at(columns, powers: Mapping[str, int], index: np.ndarray, rows: slice) -> np.ndarray:
-    return _product(columns, powers, index[rows])
+    return channel_product(columns, powers, index[rows])
