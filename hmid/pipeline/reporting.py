@@ -13,9 +13,15 @@ from hmid.experiment import log_units
 from hmid.files import atomic_path, write_json
 from hmid.plots import plot_model, plot_scores
 from hmid.report import Figure, Report, Section, Table, write_report
+from hmid.report.drawing import Drawing
 
 #: The thesis accepted a model at R² above 0.85 (Ch. 4); we apply it to held-out data.
 R2_ACCEPT = 0.85
+
+
+def _shown(model: str) -> set[str]:
+    """The prediction columns one model's figure reads."""
+    return {"log", "t", "target", model, f"{model} lower", f"{model} upper"}
 
 
 def _csv(frame: pd.DataFrame, path: Path) -> Path:
@@ -175,7 +181,9 @@ def _model_sections(fitted, figures: Path, tables: Path) -> list[Section]:
 
 
 def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: dict) -> dict:
-    """Write every table, figure, metrics.json and the report; returns the metrics."""
+    """Write every table, figure, metrics.json and the report; returns the metrics. The model
+    figures (a light module, the same plot for every model) are drawn beside the rest."""
+    drawing = Drawing(modules=("hmid.plots",)).start()
     run_dir = Path(run_dir).resolve()  # figure paths must not depend on the working directory
     tables, figures = run_dir / "tables", run_dir / "figures"
     tables.mkdir(exist_ok=True)
@@ -198,13 +206,14 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
     findings_table = pd.DataFrame([f.to_dict() for f in findings])
     if findings:
         _csv(findings_table, tables / "sign_findings.csv")
-    coefficient_sections = _model_sections(fitted, figures, tables)
 
-    plot_scores(comparison.scores, figures / "scores.png", unit)
+    # a worker draws these while this process writes the tables and the other figures
+    drawing.submit(plot_scores, comparison.scores, figures / "scores.png", unit)
     model_figures = []
     for model in fitted:
         path = figures / f"model_{model.name.replace(':', '_')}.png"
-        plot_model(comparison.predictions, model.name, path, label, unit)
+        shown = [c for c in comparison.predictions if c in _shown(model.name)]
+        drawing.submit(plot_model, comparison.predictions[shown], model.name, path, label, unit)
         model_figures.append(Figure(path, f"{model.name} on held-out data (one-step error)"))
 
     loop_sections, metrics_loop = (), None
@@ -243,6 +252,7 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
         if estimate.law is not None and estimate.law.rejected:
             friction_summary += (("friction law", estimate.law.message()),)
 
+    coefficient_sections = _model_sections(fitted, figures, tables)
     flags = list(inventory.flags)
     n_train, n_val = rows.train, rows.validation
     error_kind = f"one-step: {label} predicted from the measured signals at each sample"
@@ -327,5 +337,6 @@ def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: 
         ),
         provenance=provenance,
     )
+    drawing.wait()  # the report embeds the figures
     write_report(report, run_dir)
     return metrics

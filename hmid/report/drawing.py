@@ -1,0 +1,113 @@
+"""Figures drawn beside the work that does not need them: matplotlib takes about half a second
+a figure and a report has a dozen, on a machine whose second core is idle while the rest of a
+run goes on.
+
+Workers are *spawned* (a fresh interpreter), never forked: the main process holds JAX's and
+BLAS's threads, and a fork of a threaded process may deadlock. A spawned worker imports what it
+draws with (seconds, for modules that read a fitted result): :meth:`Drawing.start` starts it
+early, and one pool serves every run of a process. Figures are drawn exactly as inline: the same
+function, the same arguments, the same file.
+"""
+
+from __future__ import annotations
+
+import atexit
+import os
+from collections.abc import Callable
+from concurrent.futures import Future, ProcessPoolExecutor
+from typing import Any
+
+from hmid.errors import ConfigError
+
+#: ``HMID_DRAW_WORKERS``: worker processes for figures (0: draw in the calling process)
+WORKERS_VARIABLE = "HMID_DRAW_WORKERS"
+
+_POOL: dict[tuple, ProcessPoolExecutor] = {}
+
+
+def default_workers() -> int:
+    """The environment's choice, else one worker where there is a second core (none on one
+    core: it would only compete with the run; more than one costs each its imports), and none
+    in a worker process (a sweep's, a blind suite's: its siblings use the other cores)."""
+    import multiprocessing
+
+    said = os.environ.get(WORKERS_VARIABLE)
+    if said is not None:
+        try:
+            workers = int(said)
+        except ValueError:
+            workers = -1
+        if workers < 0:
+            raise ConfigError(f"{WORKERS_VARIABLE}={said!r}: give a whole number >= 0")
+        return workers
+    if multiprocessing.parent_process() is not None:
+        return 0
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return 1 if (cores or 1) > 1 else 0
+
+
+def _warm(modules: tuple[str, ...]) -> None:
+    import importlib
+
+    for name in ("matplotlib.figure", *modules):
+        importlib.import_module(name)
+
+
+def _ready() -> None:
+    """A task that makes the pool spawn a worker (it spawns them as tasks come)."""
+
+
+def _pool(workers: int, modules: tuple[str, ...]) -> ProcessPoolExecutor:
+    pool = _POOL.get((workers, modules))
+    if pool is None:
+        from multiprocessing import get_context
+
+        pool = _POOL[workers, modules] = ProcessPoolExecutor(
+            workers, mp_context=get_context("spawn"), initializer=_warm, initargs=(modules,)
+        )
+        if len(_POOL) == 1:
+            atexit.register(shutdown)
+    return pool
+
+
+def shutdown() -> None:
+    """Stop the workers (at exit, or to free their memory)."""
+    while _POOL:
+        _POOL.popitem()[1].shutdown(wait=True, cancel_futures=True)
+
+
+class Drawing:
+    """Submit figure functions (module-level, picklable arguments); :meth:`wait` returns when
+    all are drawn and raises the first failure. With no workers each is drawn at once.
+    ``modules``: what the workers import when they start."""
+
+    def __init__(self, workers: int | None = None, modules: tuple[str, ...] = ()) -> None:
+        self.workers = default_workers() if workers is None else workers
+        self.modules = tuple(modules)
+        self._queued: list[tuple[Future, Callable[..., Any], tuple, dict]] = []
+
+    def start(self) -> Drawing:
+        """Start the workers now: they import while the caller works."""
+        if self.workers:
+            pool = _pool(self.workers, self.modules)
+            for _ in range(self.workers):
+                pool.submit(_ready)
+        return self
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> None:
+        if not self.workers:
+            fn(*args, **kwargs)
+            return
+        future = _pool(self.workers, self.modules).submit(fn, *args, **kwargs)
+        self._queued.append((future, fn, args, kwargs))
+
+    def wait(self) -> None:
+        """The caller, done with its own work, draws what no worker has begun (from the last
+        submitted back), then waits for the rest."""
+        queued, self._queued = self._queued, []
+        for future, fn, args, kwargs in reversed(queued):
+            if future.cancel():
+                fn(*args, **kwargs)
+        for future, *_ in queued:
+            if not future.cancelled():
+                future.result()
