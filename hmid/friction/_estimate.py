@@ -33,7 +33,7 @@ class LoadCellCheck:
 
 @dataclass(frozen=True)
 class LogFriction:
-    """The friction fit to one free-fall log (intervals: Student t, ``n - p`` dof)."""
+    """The friction fit to one free-fall log (intervals: Student t, on the covariance's dof)."""
 
     source: str
     params: Mapping[str, float]
@@ -71,7 +71,8 @@ class FrictionEstimate:
     """Friction identified from free-fall logs: pooled parameters, per-log fits, heterogeneity.
 
     The pooled parameters are the inverse-covariance weighted mean of the per-log estimates
-    (fixed effect; for one parameter, the inverse-variance weighted mean), with normal intervals.
+    (fixed effect; for one parameter, the inverse-variance weighted mean), with Student-t
+    intervals on the Welch-Satterthwaite dof of the per-log variances.
     ``q`` is Cochran's Q, ``sum_i (theta_i - theta)' W_i (theta_i - theta)``, chi-square with
     ``q_dof = p (k - 1)`` degrees of freedom if the logs share one friction; a small ``q_p`` says
     they do not. The pooled covariance is widened by the Birge ratio ``max(1, q / q_dof)``, so

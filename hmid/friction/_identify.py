@@ -145,7 +145,15 @@ def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign,
         v_ref=direction * fit.w0,
         load_cell=load_cell,
     )
-    return result, np.asarray(fit.cov), (tau, u, fit.fitted)
+    return result, np.asarray(fit.cov), (tau, u, fit.fitted), fit.dof
+
+
+def _pooled_dof(covs: list[np.ndarray], dofs: list[float]) -> np.ndarray:
+    """Welch-Satterthwaite degrees of freedom of each pooled parameter's variance
+    1 / sum(1 / v_i), each log's v_i estimated on its own dof: a few short falls whose
+    noise is correlated give far fewer than their samples."""
+    weights = np.array([1.0 / np.diag(c) for c in covs])  # (logs, parameters)
+    return weights.sum(axis=0) ** 2 / np.sum(weights**2 / np.asarray(dofs)[:, None], axis=0)
 
 
 def _pool(thetas: list[np.ndarray], covs: list[np.ndarray]):
@@ -182,7 +190,8 @@ def identify_friction(
     longest run with ``|v| > v_min``, trimmed at stick/slide transitions by the derivative's
     reach; ``model`` is fitted to the position there (see :mod:`hmid.friction._models`), giving
     the parameters with Student-t intervals. The logs are pooled by inverse-covariance
-    weighting, with Cochran's Q for their agreement. The fall's mass and drive are taken as
+    weighting (Student-t intervals on the Welch-Satterthwaite dof of the per-log variances),
+    with Cochran's Q for their agreement. The fall's mass and drive are taken as
     exact. A force channel, where the log has it, gives an independent cross-check: in a free
     fall it reads the friction alone, entering with ``friction_sign``.
     """
@@ -201,24 +210,25 @@ def identify_friction(
     settings = (v_min, confidence, position, friction_sign, explained)
     fits = [_fit_log(log, rig, model, differentiator, *settings) for log in logs]
     names = model.param_names
-    thetas = [np.array([r.params[p] for p in names]) for r, _, _ in fits]
-    mean, cov, q, dof = _pool(thetas, [c for _, c, _ in fits])
+    thetas = [np.array([r.params[p] for p in names]) for r, *_ in fits]
+    mean, cov, q, dof = _pool(thetas, [c for _, c, *_ in fits])
     se = np.sqrt(np.diag(cov))
-    z = stats.norm.ppf(0.5 + confidence / 2)
+    z = stats.t.ppf(0.5 + confidence / 2, _pooled_dof([c for _, c, *_ in fits],
+                                                     [d for *_, d in fits]))  # fmt: skip
     q_p = float(stats.chi2.sf(q, dof)) if dof > 0 else float("nan")
     i2 = max(0.0, (q - dof) / q) if dof > 0 and q > 0 else (0.0 if dof > 0 else float("nan"))
     return FrictionEstimate(
         model=model,
         params={p: float(mean[j]) for j, p in enumerate(names)},
         se={p: float(se[j]) for j, p in enumerate(names)},
-        ci={p: _interval(mean[j], se[j], z) for j, p in enumerate(names)},
+        ci={p: _interval(mean[j], se[j], z[j]) for j, p in enumerate(names)},
         units=dict(model.units),
-        per_log=tuple(r for r, _, _ in fits),
+        per_log=tuple(r for r, *_ in fits),
         q=q,
         q_dof=dof,
         q_p=q_p,
         i2=float(i2),
         confidence=confidence,
         rig=rig,
-        law=check_law(model, [f for _, _, f in fits], rig, confidence),
+        law=check_law(model, [f for _, _, f, _ in fits], rig, confidence),
     )

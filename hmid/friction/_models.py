@@ -11,9 +11,11 @@ so each model only sees a monotone, accelerating travel ``u(tau)`` on the slidin
 derivatives: residuals are then mostly sensor noise and quantisation; fitting ``a_est`` against
 ``v`` instead would use residuals that the derivative's smoothing window correlates over dozens
 of samples. A position sensor's noise may still be correlated in time (a filtered amplifier), so
-the covariance is the least-squares sandwich with the residual's autocovariance up to Sokal's
-window (:func:`correlated_covariance`; the plain one covered 0.41 at 95 % nominal under AR(1)
-phi 0.9 position noise in ``benchmarks/bench_calibration_friction.py``).
+the covariance is the widest of the i.i.d. one, the sandwich with the residual's autocovariance up
+to Sokal's window and the sandwich for AR(1) + white errors fitted through the fit's projection
+(:func:`correlated_covariance`; under AR(1) phi 0.9 position noise in
+``benchmarks/bench_calibration_friction.py`` the plain one covered 0.41 at 95 % nominal, the
+lag window 0.87, all three 0.96).
 
 A plug-in model subclasses :class:`FrictionModel` and implements its four methods.
 """
@@ -63,11 +65,15 @@ def correlated_covariance(
     jacobian: np.ndarray, resid: np.ndarray, keep: list[int], factor: float = 1.0
 ) -> tuple[np.ndarray, float]:
     """Covariance of the least-squares parameters ``keep`` (times ``factor``) for a residual
-    correlated in time, and the t intervals' degrees of freedom: the sandwich with the
-    residual's autocovariance up to Sokal's window (:mod:`hmid.models._intervals`, n / (2 M + 1)
-    df), never narrower than the i.i.d. covariance in any direction (on a short fall a white
-    residual's estimated autocovariance is noisy, and a too-narrow interval fails the pooling's
-    homogeneity test); the i.i.d. one (n - p df) where the residual is white."""
+    correlated in time, and the t intervals' degrees of freedom. The widest, direction by
+    direction, of: the i.i.d. covariance (n - p df; on a short fall a white residual's
+    estimated autocovariance is noisy, and a too-narrow interval fails the pooling's
+    homogeneity test); the sandwich with the residual's autocovariance up to Sokal's window
+    (:mod:`hmid.models._intervals`, n / (2 M + 1) df); and the sandwich for AR(1) + white errors
+    fitted through the fit's projection (:mod:`hmid.models._ar_white`, n (1 - phi) / (1 + phi)
+    df): a fall a few correlation times long holds too few lags for the first, and its
+    residual has lost the errors' slow part to the fit."""
+    from hmid.models._ar_white import ar_white_covariance
     from hmid.models._intervals import autocov_covariance, residual_correlation
 
     n, p = jacobian.shape
@@ -76,16 +82,28 @@ def correlated_covariance(
     scale = np.sqrt(np.mean(jacobian**2, axis=0))
     scale[scale == 0] = 1.0
     design = jacobian / scale
-    plain = np.linalg.pinv(design.T @ design) * float(resid @ resid) / max(n - p, 1)
-    sandwich = autocov_covariance(design, gamma[: lags + 1])
-    lower = np.linalg.cholesky(plain)
-    inverse = np.linalg.inv(lower)
-    ratio, vectors = np.linalg.eigh(inverse @ sandwich @ inverse.T)
-    widened = bool(np.any(ratio > 1.0))
-    cov = lower @ vectors @ np.diag(np.maximum(ratio, 1.0)) @ vectors.T @ lower.T
+    cov = np.linalg.pinv(design.T @ design) * float(resid @ resid) / max(n - p, 1)
+    dof = n - p
+    cov, wider = _at_least(cov, autocov_covariance(design, gamma[: lags + 1]))
+    if wider:
+        dof = min(dof, n / (2 * lags + 1))
+    found = ar_white_covariance(design, resid)
+    if found is not None:
+        cov, wider = _at_least(cov, found[0])
+        if wider:
+            dof = min(dof, n * (1 - found[1]) / (1 + found[1]))
     cov = cov / np.outer(scale, scale)
-    dof = min(n - p, n / (2 * lags + 1)) if widened else n - p
     return cov[np.ix_(keep, keep)] * factor**2, float(max(dof, 1))
+
+
+def _at_least(base: np.ndarray, other: np.ndarray) -> tuple[np.ndarray, bool]:
+    """The smallest covariance (along ``other``'s eigendirections relative to ``base``) that
+    is at least both, and whether it is wider than ``base`` in some direction."""
+    lower = np.linalg.cholesky(base)
+    inverse = np.linalg.inv(lower)
+    ratio, vectors = np.linalg.eigh(inverse @ other @ inverse.T)
+    widest = lower @ vectors @ np.diag(np.maximum(ratio, 1.0)) @ vectors.T @ lower.T
+    return widest, bool(np.any(ratio > 1.0))
 
 
 @dataclass(frozen=True)
