@@ -48,11 +48,13 @@ def _simulate(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     from hmid.pipeline.compilation import use_compilation_cache
+    from hmid.report.drawing import allow_workers
     from pipelines.identify import run
 
     if Path(args.results).is_file():  # said before anything is made beside it
         raise NotADirectoryError(20, "Not a directory", str(args.results))
     use_compilation_cache(Path(args.results) / ".jax-cache")
+    allow_workers()  # this program's main module is guarded: a spawned worker may import it
     run_dir, metrics = run(Path(args.config), results=Path(args.results), force=args.force)
     print(console_summary(metrics))
     print(f"report: {run_dir / 'report.html'}")

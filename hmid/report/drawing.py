@@ -23,12 +23,22 @@ from hmid.errors import ConfigError
 WORKERS_VARIABLE = "HMID_DRAW_WORKERS"
 
 _POOL: dict[tuple, ProcessPoolExecutor] = {}
+_ALLOWED = [False]  # set by hmid's command line (allow_workers)
+
+
+def allow_workers() -> None:
+    """Let :func:`default_workers` choose a worker. A spawned worker imports the program's main
+    module first, so its top level must be guarded by ``if __name__ == "__main__":`` (hmid's
+    command line is; a user's script calling the pipeline need not be, and draws inline unless
+    it sets ``HMID_DRAW_WORKERS``)."""
+    _ALLOWED[0] = True
 
 
 def default_workers() -> int:
-    """The environment's choice, else one worker where there is a second core (none on one
-    core: it would only compete with the run; more than one costs each its imports), and none
-    in a worker process (a sweep's, a blind suite's: its siblings use the other cores)."""
+    """The environment's choice; else none unless :func:`allow_workers` was called; else one
+    worker where there is a second core (none on one core: it would only compete with the run;
+    more than one costs each its imports), and none in a worker process (a sweep's, a blind
+    suite's: its siblings use the other cores)."""
     import multiprocessing
 
     said = os.environ.get(WORKERS_VARIABLE)
@@ -40,7 +50,7 @@ def default_workers() -> int:
         if workers < 0:
             raise ConfigError(f"{WORKERS_VARIABLE}={said!r}: give a whole number >= 0")
         return workers
-    if multiprocessing.parent_process() is not None:
+    if not _ALLOWED[0] or multiprocessing.parent_process() is not None:
         return 0
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     return 1 if (cores or 1) > 1 else 0

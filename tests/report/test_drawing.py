@@ -8,6 +8,7 @@ import pytest
 from _drawing_tasks import sleep, write_pid
 
 from hmid.plots import plot_scores
+from hmid.report import drawing as drawing_module
 from hmid.report.drawing import WORKERS_VARIABLE, Drawing, default_workers
 
 SCORES = pd.DataFrame(
@@ -57,5 +58,18 @@ def test_a_worker_process_draws_its_own_figures(monkeypatch):
     import multiprocessing
 
     monkeypatch.delenv(WORKERS_VARIABLE, raising=False)
+    monkeypatch.setattr(drawing_module, "_ALLOWED", [True])
+    monkeypatch.setattr(drawing_module.os, "sched_getaffinity", lambda _: {0, 1}, raising=False)
+    assert default_workers() == 1
     monkeypatch.setattr(multiprocessing, "parent_process", lambda: object())
     assert default_workers() == 0
+
+
+def test_a_caller_whose_main_module_may_be_unguarded_draws_inline(monkeypatch):
+    """A spawned worker imports the program's main module: only hmid's command line, whose main
+    is guarded, lets workers be chosen without the environment saying so."""
+    monkeypatch.delenv(WORKERS_VARIABLE, raising=False)
+    monkeypatch.setattr(drawing_module, "_ALLOWED", [False])
+    assert default_workers() == 0
+    monkeypatch.setenv(WORKERS_VARIABLE, "1")
+    assert default_workers() == 1
