@@ -10,7 +10,8 @@ from hmid.errors import HmidWarning
 from hmid.experiment import ExperimentConfig, load_experiment
 from hmid.pipeline import Runner, Stage
 from hmid.pipeline import stages as s
-from hmid.pipeline.reporting import write_outputs
+from hmid.pipeline.reporting import FIGURE_MODULES, write_outputs
+from hmid.report.drawing import Drawing
 from hmid.runs import config_json, open_run
 
 
@@ -84,6 +85,7 @@ def run(
     inputs = [config.resolve(p) for e in config.logs for p in (e.path, e.columns)]
     resolved = config_json(config)
     with open_run(results, config.name, config_path, resolved, config.seed, inputs) as folder:
+        drawing = Drawing(modules=FIGURE_MODULES).start()  # ready by the report
         runner = Runner(Path(results) / config.name / ".cache", force=force)
         artifacts = runner.run(STAGES, config, keep=REPORTED)
         folder.manifest.stages = {name: r.wall_s for name, r in runner.records.items()}
@@ -92,5 +94,5 @@ def run(
         for message in findings(artifacts):  # said on every run, the cached ones too
             warnings.warn(message, HmidWarning, stacklevel=2)
         with folder.manifest.stage("report"):
-            metrics = write_outputs(config, artifacts, folder.path, folder.provenance())
+            metrics = write_outputs(config, artifacts, folder.path, folder.provenance(), drawing)
     return folder.path, metrics

@@ -180,10 +180,17 @@ def _model_sections(fitted, figures: Path, tables: Path) -> list[Section]:
     return sections
 
 
-def write_outputs(config, artifacts: dict[str, Any], run_dir: Path, provenance: dict) -> dict:
+#: What the figure worker draws with (a light module: the same plot for every model)
+FIGURE_MODULES = ("hmid.plots",)
+
+
+def write_outputs(
+    config, artifacts: dict[str, Any], run_dir: Path, provenance: dict, drawing=None
+) -> dict:
     """Write every table, figure, metrics.json and the report; returns the metrics. The model
-    figures (a light module, the same plot for every model) are drawn beside the rest."""
-    drawing = Drawing(modules=("hmid.plots",)).start()
+    figures are drawn by ``drawing`` (:class:`~hmid.report.drawing.Drawing`; default: one
+    started here) beside the rest."""
+    drawing = Drawing(modules=FIGURE_MODULES).start() if drawing is None else drawing
     run_dir = Path(run_dir).resolve()  # figure paths must not depend on the working directory
     tables, figures = run_dir / "tables", run_dir / "figures"
     tables.mkdir(exist_ok=True)
