@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-#: phi is searched in [PHI_LOW, PHI_HIGH]: beyond it the record holds under one correlation time
+#: The range phi is searched in (the end whose lag-2 gap is smaller where no root lies inside)
 PHI_LOW, PHI_HIGH = 0.01, 0.999
 
 
@@ -57,8 +57,8 @@ def _expected(q: np.ndarray, phi: float | None) -> np.ndarray:
 
 def ar_white_covariance(design: np.ndarray, resid: np.ndarray) -> tuple[np.ndarray, float] | None:
     """``(covariance of the least-squares coefficients, phi)`` for errors AR(1) + white, fitted
-    through the projection; None where the residual's lag-1 autocorrelation is within white
-    noise's two-sided 95 % bound 1.96 / sqrt(n), or its lag-2 sum is not positive: phi, taken
+    through the projection; None where the residual's lag-1 autocorrelation lies below white
+    noise's one-sided 97.5 % bound 1.96 / sqrt(n), or its lag-2 sum is not positive: phi, taken
     from the lags' ratio, would then be noise, and a spurious phi near 1 widens a white
     residual's intervals several times."""
     from scipy.optimize import brentq

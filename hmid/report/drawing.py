@@ -15,6 +15,7 @@ import atexit
 import os
 from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
 from hmid.errors import ConfigError
@@ -100,24 +101,44 @@ class Drawing:
         """Start the workers now: they import while the caller works."""
         if self.workers:
             pool = _pool(self.workers, self.modules)
-            for _ in range(self.workers):
-                pool.submit(_ready)
+            try:
+                for _ in range(self.workers):
+                    pool.submit(_ready)
+            except BrokenProcessPool:
+                self._broken()
         return self
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> None:
-        if not self.workers:
-            fn(*args, **kwargs)
-            return
-        future = _pool(self.workers, self.modules).submit(fn, *args, **kwargs)
-        self._queued.append((future, fn, args, kwargs))
+        if self.workers:
+            try:
+                future = _pool(self.workers, self.modules).submit(fn, *args, **kwargs)
+            except BrokenProcessPool:
+                self._broken()
+            else:
+                self._queued.append((future, fn, args, kwargs))
+                return
+        fn(*args, **kwargs)
 
     def wait(self) -> None:
         """The caller, done with its own work, draws what no worker has begun (from the last
-        submitted back), then waits for the rest."""
+        submitted back), then waits for the rest; a figure whose worker died is drawn here."""
         queued, self._queued = self._queued, []
         for future, fn, args, kwargs in reversed(queued):
             if future.cancel():
                 fn(*args, **kwargs)
-        for future, *_ in queued:
-            if not future.cancelled():
+        for future, fn, args, kwargs in queued:
+            if future.cancelled():
+                continue
+            try:
                 future.result()
+            except BrokenProcessPool:
+                self._broken()
+                fn(*args, **kwargs)
+
+    def _broken(self) -> None:
+        """A worker died (killed, out of memory): this drawing draws inline from now on, and
+        the next one starts a fresh pool."""
+        pool = _POOL.pop((self.workers, self.modules), None)
+        if pool is not None:
+            pool.shutdown(wait=False, cancel_futures=True)
+        self.workers = 0

@@ -2,7 +2,9 @@
 caller drawing what the worker has not begun."""
 
 import os
+import time
 
+import _drawing_tasks
 import pandas as pd
 import pytest
 from _drawing_tasks import sleep, write_pid
@@ -73,3 +75,18 @@ def test_a_caller_whose_main_module_may_be_unguarded_draws_inline(monkeypatch):
     assert default_workers() == 0
     monkeypatch.setenv(WORKERS_VARIABLE, "1")
     assert default_workers() == 1
+
+
+def test_a_dead_worker_s_figures_are_drawn_here(tmp_path):
+    """A worker killed (out of memory, a signal) loses no figure: the caller draws the one it
+    was drawing and every later one."""
+    drawing = Drawing(workers=1).start()
+    killed, later = tmp_path / "killed.pid", tmp_path / "later.pid"
+    drawing.submit(_drawing_tasks.die_in_a_worker, killed)
+    (dying, *_), deadline = drawing._queued[0], time.monotonic() + 60
+    while not dying.done() and time.monotonic() < deadline:
+        time.sleep(0.05)  # the worker begins it and dies
+    drawing.submit(write_pid, later)
+    drawing.wait()
+    assert int(killed.read_text()) == int(later.read_text()) == os.getpid()
+    assert drawing.workers == 0
