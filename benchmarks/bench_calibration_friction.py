@@ -36,8 +36,10 @@ binomial s.e. (the intervals are independent across logs and replications), and 
 relative to the width needed, 2 z x the spread of the estimates over the replications (per log
 position for the per-log rows). Per case (on its ``pooled`` rows): how often the law check
 rejected the fitted law (level 0.01) and how often Cochran's Q p < 0.05 (both false alarms here),
-and the median Durbin-Watson of the x residuals. Target (issue 15 "Intervals that mean what they
-say"): nominal ± 3 points, 0.92-0.98 at 95 %.
+and the x residuals' median Durbin-Watson statistic and correlation time (τ_int in samples, as
+the fit measures it: the friction table's calibration status compares a fall's with the phi 0.9
+case's, ``hmid.friction._models.CALIBRATED_TAU``). Target (issue 15 "Intervals that mean what
+they say"): nominal ± 3 points, 0.92-0.98 at 95 %.
 """
 
 from __future__ import annotations
@@ -166,6 +168,7 @@ def run_case(index: int, case: Case, reps: int, config, dataset) -> list[dict]:
         "law rejected": np.mean([e.law.rejected for e in estimates]),
         "Q p < 0.05": np.mean([e.q_p < 0.05 for e in estimates]),
         "DW": np.median([lg.durbin_watson for e in estimates for lg in e.per_log]),
+        "τ_int": np.median([lg.tau_int for e in estimates for lg in e.per_log]),
     }
     rows = []
     for name in estimates[0].model.param_names:

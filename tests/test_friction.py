@@ -209,6 +209,31 @@ def test_estimate_serialises_tabulates_and_plots(demo_falls, tmp_path):
     assert path.stat().st_size > 10_000
 
 
+def test_each_row_says_what_its_intervals_are_and_whether_they_are_calibrated(demo_falls):
+    """White x noise: calibrated. x noise correlated over ~66 samples (AR(1) phi 0.97, sd 1 mm,
+    added to the logged position) lies beyond what the benchmark calibrated (its phi 0.97 case
+    misses the band), and the table says so."""
+    logs = [s.log for s in demo_falls]
+    table = identify_friction(logs, RIG, Coulomb(), differentiator=DIFF).table()
+    assert table["interval"].str.startswith("95 % Student t").all()
+    assert table["calibration"].str.startswith("calibrated").all(), table["calibration"]
+    assert (table["τ_int [samples]"].iloc[:-1] < 3).all()
+    rng = np.random.default_rng(5)
+    correlated = []
+    for log in logs:
+        e = np.zeros(len(log))
+        e[0] = rng.normal(0.0, 1e-3)
+        for k in range(1, len(e)):
+            e[k] = 0.97 * e[k - 1] + rng.normal(0.0, 1e-3 * np.sqrt(1 - 0.97**2))
+        correlated.append(log.with_channels(x=log["x"] + e))
+    table = identify_friction(correlated, RIG, Coulomb(), differentiator=DIFF).table()
+    assert table["calibration"].str.startswith("BEYOND calibration").all(), table
+    assert (table["τ_int [samples]"].iloc[:-1] > 16).all()
+    record = identify_friction(correlated, RIG, Coulomb(), differentiator=DIFF).to_dict()
+    assert record["intervals"]["status"].startswith("BEYOND calibration")
+    assert record["logs"][0]["tau_int"] > 16
+
+
 def test_single_log_has_no_heterogeneity_test(demo_falls):
     est = identify_friction([demo_falls[0].log], RIG, Coulomb(), differentiator=DIFF)
     assert est.q_dof == 0 and np.isnan(est.q_p)

@@ -10,7 +10,8 @@ import numpy as np
 import pandas as pd
 
 from hmid.friction._law import LawCheck
-from hmid.friction._models import FallRig, FrictionModel
+from hmid.friction._models import CALIBRATED_TAU, FallRig, FrictionModel
+from hmid.intervals import IntervalNote
 
 Interval = tuple[float, float]
 
@@ -42,6 +43,7 @@ class LogFriction:
     r2: float  # of the x(t) fit on the sliding segment
     rmse_m: float  # residual RMS of x, m
     durbin_watson: float  # of the x residuals: ~2 when they are white (honest intervals)
+    tau_int: float  # the x residuals' correlation time, samples (see correlated_covariance)
     n_samples: int  # samples in the fitted sliding segment
     fraction_used: float  # n_samples / samples in the log
     t_start: float  # s, first sample of the segment
@@ -125,6 +127,7 @@ class FrictionEstimate:
                 "heterogeneity": {"Q": self.q, "dof": self.q_dof, "p": self.q_p, "I2": self.i2},
                 "free_fall": {"mass": self.rig.mass, "drive": self.rig.drive},
                 "law_check": None if self.law is None else self.law.to_dict(),
+                "intervals": self._note_record(),
                 "logs": [
                     {
                         "source": r.source,
@@ -134,6 +137,7 @@ class FrictionEstimate:
                         "r2": r.r2,
                         "rmse_m": r.rmse_m,
                         "durbin_watson": r.durbin_watson,
+                        "tau_int": r.tau_int,
                         "n_samples": r.n_samples,
                         "fraction_used": r.fraction_used,
                         "segment_s": (r.t_start, r.t_end),
@@ -162,16 +166,37 @@ class FrictionEstimate:
                 "R2": r.r2,
                 "RMSE [m]": r.rmse_m,
                 "DW": r.durbin_watson,
+                "τ_int [samples]": r.tau_int,
             }
             row |= self._param_columns(r.params, r.ci)
             if r.load_cell is not None:
                 row |= self._param_columns(r.load_cell.params, r.load_cell.ci, " (load cell)")
-            rows.append(row)
+            rows.append(row | self.interval_note(r.tau_int).columns())
         pooled = {"log": "pooled", "n": sum(r.n_samples for r in self.per_log)}
         pooled |= self._param_columns(self.params, self.ci)
         pooled |= {"Q": self.q, "Q dof": self.q_dof, "Q p": self.q_p, "I2": self.i2}
-        rows.append(pooled)
+        longest = max((r.tau_int for r in self.per_log), default=float("nan"))
+        rows.append(pooled | self.interval_note(longest, pooled=True).columns())
         return pd.DataFrame(rows)
+
+    def _note_record(self) -> dict:
+        """The pooled intervals' level, method and calibration status (as the models')."""
+        longest = max((r.tau_int for r in self.per_log), default=float("nan"))
+        note = self.interval_note(longest, pooled=True)
+        fields = ("level", "method", "status", "tau_int", "calibrated_to")
+        return {name: getattr(note, name) for name in fields}
+
+    def interval_note(self, tau_int: float, pooled: bool = False) -> IntervalNote:
+        """What a row's intervals are; the pooled row is as calibrated as its most correlated
+        log."""
+        method = (
+            "Student t, inverse-variance pooled (Welch-Satterthwaite dof)" if pooled else
+            "Student t, widest of i.i.d., lag-window and AR(1) + white sandwiches"
+        )  # fmt: skip
+        return IntervalNote(
+            self.confidence, method, tau_int if math.isfinite(tau_int) else None,
+            CALIBRATED_TAU, "benchmarks/bench_calibration_friction.py",
+        )  # fmt: skip
 
     def _param_columns(self, params, ci, suffix: str = "") -> dict[str, float]:
         out = {}

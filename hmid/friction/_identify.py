@@ -68,7 +68,7 @@ def _load_cell_check(F, v, direction, model, confidence, sign) -> LoadCellCheck:
     design = model.load_cell_design(np.abs(v))
     fitted = sm.OLS(sign * direction * F, design).fit()
     keep = list(range(design.shape[1]))
-    cov, dof = correlated_covariance(design, np.asarray(fitted.resid), keep)
+    cov, dof, _ = correlated_covariance(design, np.asarray(fitted.resid), keep)
     half = stats.t.ppf(0.5 + confidence / 2, dof) * np.sqrt(np.diag(cov))
     params = np.asarray(fitted.params)
     return LoadCellCheck(
@@ -135,6 +135,7 @@ def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign,
         r2=float(1.0 - np.sum(resid**2) / sst),
         rmse_m=float(np.sqrt(np.mean(resid**2))),
         durbin_watson=float(durbin_watson(resid)),
+        tau_int=float(fit.tau_int),
         n_samples=n,
         fraction_used=n / len(log),
         t_start=float(t[i0]),

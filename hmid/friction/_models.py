@@ -33,6 +33,11 @@ import numpy as np
 import statsmodels.api as sm
 from scipy.optimize import curve_fit
 
+#: The longest residual correlation time (samples, as :func:`correlated_covariance` measures
+#: it) at which benchmarks/bench_calibration_friction.py met the band: the median over the
+#: falls of its AR(1) phi = 0.9 case, 15.7 (phi 0.5: 2.6; phi 0.97, not met: 28).
+CALIBRATED_TAU = 16.0
+
 
 @dataclass(frozen=True)
 class FallRig:
@@ -59,13 +64,16 @@ class FallFit:
     w0: float  # travel speed at tau = 0, m/s
     fitted: np.ndarray  # fitted travel at each sample, m
     dof: float  # degrees of freedom of the t intervals
+    tau_int: float = float("nan")  # the residual's correlation time, samples
 
 
 def correlated_covariance(
     jacobian: np.ndarray, resid: np.ndarray, keep: list[int], factor: float = 1.0
-) -> tuple[np.ndarray, float]:
+) -> tuple[np.ndarray, float, float]:
     """Covariance of the least-squares parameters ``keep`` (times ``factor``) for a residual
-    correlated in time, and the t intervals' degrees of freedom. The widest, direction by
+    correlated in time, the t intervals' degrees of freedom, and the residual's correlation
+    time in samples (the larger of the lag window's and the AR(1) + white model's: the first
+    reads short on a short record). The widest, direction by
     direction, of: the i.i.d. covariance (n - p df; on a short fall a white residual's
     estimated autocovariance is noisy, and a too-narrow interval fails the pooling's
     homogeneity test); the sandwich with the residual's autocovariance up to Sokal's window
@@ -77,7 +85,7 @@ def correlated_covariance(
     from hmid.models._intervals import autocov_covariance, residual_correlation
 
     n, p = jacobian.shape
-    gamma, window, _ = residual_correlation(resid)
+    gamma, window, tau_int = residual_correlation(resid)
     lags = window if window is not None else gamma.size - 1
     scale = np.sqrt(np.mean(jacobian**2, axis=0))
     scale[scale == 0] = 1.0
@@ -92,8 +100,9 @@ def correlated_covariance(
         cov, wider = _at_least(cov, found[0])
         if wider:
             dof = min(dof, n * (1 - found[1]) / (1 + found[1]))
+        tau_int = max(tau_int, found[2])
     cov = cov / np.outer(scale, scale)
-    return cov[np.ix_(keep, keep)] * factor**2, float(max(dof, 1))
+    return cov[np.ix_(keep, keep)] * factor**2, float(max(dof, 1)), float(tau_int)
 
 
 def _at_least(base: np.ndarray, other: np.ndarray) -> tuple[np.ndarray, bool]:
@@ -158,10 +167,10 @@ class Coulomb(FrictionModel):
         ols = sm.OLS(u, design).fit()
         mass = _mass(rig)
         Fc = rig.drive - mass * ols.params[2]
-        cov, dof = correlated_covariance(design, np.asarray(ols.resid), [2], mass)
+        cov, dof, tau_int = correlated_covariance(design, np.asarray(ols.resid), [2], mass)
         return FallFit(
             {"Fc": float(Fc)}, cov, float(ols.params[0]), float(ols.params[1]),
-            np.asarray(ols.fittedvalues), dof,
+            np.asarray(ols.fittedvalues), dof, tau_int,
         )  # fmt: skip
 
     def travel(self, tau, u0, w0, params, rig):
@@ -245,10 +254,10 @@ class CoulombViscous(FrictionModel):
         p0 = [start.u0, start.w0, start.params["Fc"], 0.0]
         popt, _ = curve_fit(model, tau, u, p0=p0, jac=jacobian, method="lm", maxfev=2000)
         fitted = model(tau, *popt)
-        cov, dof = correlated_covariance(jacobian(tau, *popt), u - fitted, [2, 3])
+        cov, dof, tau_int = correlated_covariance(jacobian(tau, *popt), u - fitted, [2, 3])
         return FallFit(
             {"Fc": float(popt[2]), "b": float(popt[3])}, cov,
-            float(popt[0]), float(popt[1]), fitted, dof,
+            float(popt[0]), float(popt[1]), fitted, dof, tau_int,
         )  # fmt: skip
 
     def travel(self, tau, u0, w0, params, rig):

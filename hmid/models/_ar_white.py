@@ -55,12 +55,15 @@ def _expected(q: np.ndarray, phi: float | None) -> np.ndarray:
     return out
 
 
-def ar_white_covariance(design: np.ndarray, resid: np.ndarray) -> tuple[np.ndarray, float] | None:
-    """``(covariance of the least-squares coefficients, phi)`` for errors AR(1) + white, fitted
-    through the projection; None where the residual's lag-1 autocorrelation lies below white
-    noise's one-sided 97.5 % bound 1.96 / sqrt(n), or its lag-2 sum is not positive: phi, taken
-    from the lags' ratio, would then be noise, and a spurious phi near 1 widens a white
-    residual's intervals several times."""
+def ar_white_covariance(
+    design: np.ndarray, resid: np.ndarray
+) -> tuple[np.ndarray, float, float] | None:
+    """``(covariance of the least-squares coefficients, phi, tau_int)`` for errors AR(1) +
+    white, fitted through the projection (tau_int: the fitted errors' integrated correlation
+    time in samples, 1 + 2 s_a / (s_a + s_w) phi / (1 - phi)). None where the residual's lag-1
+    autocorrelation lies below white noise's one-sided 97.5 % bound 1.96 / sqrt(n), or its
+    lag-2 sum is not positive: phi, taken from the lags' ratio, would then be noise, and a
+    spurious phi near 1 widens a white residual's intervals several times."""
     from scipy.optimize import brentq
 
     n, p = design.shape
@@ -85,4 +88,5 @@ def ar_white_covariance(design: np.ndarray, resid: np.ndarray) -> tuple[np.ndarr
     s_a, s_w = np.maximum(scales(phi)[0], 0.0)
     meat = s_a * (design.T @ _times_ar(design, phi)) + s_w * (design.T @ design)
     bread = np.linalg.pinv(design.T @ design)
-    return bread @ meat @ bread, phi
+    share = s_a / (s_a + s_w) if s_a + s_w > 0 else 0.0
+    return bread @ meat @ bread, phi, float(1 + 2 * share * phi / (1 - phi))

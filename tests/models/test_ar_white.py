@@ -44,13 +44,14 @@ def test_short_correlated_records_are_covered_where_the_lag_window_is_not():
     design = quadratic()
     bread = np.linalg.pinv(design.T @ design)
     hits = {"AR(1) + white": [], "lag window": []}
-    phis = []
+    phis, taus = [], []
     for _ in range(300):
         resid_all = errors(rng, 0.9)
         coef = bread @ design.T @ resid_all  # truth 0: the curvature's estimate is its error
         resid = resid_all - design @ coef
-        cov, phi = ar_white_covariance(design, resid)
+        cov, phi, tau = ar_white_covariance(design, resid)
         phis.append(phi)
+        taus.append(tau)
         dof = N * (1 - phi) / (1 + phi)
         hits["AR(1) + white"].append(abs(coef[2]) <= stats.t.ppf(0.975, dof) * np.sqrt(cov[2, 2]))
         gamma, window, _ = residual_correlation(resid)
@@ -62,6 +63,8 @@ def test_short_correlated_records_are_covered_where_the_lag_window_is_not():
     assert 0.92 <= coverage["AR(1) + white"] <= 0.99, coverage
     assert coverage["lag window"] < 0.9, coverage  # what the lag window alone gave
     assert 0.8 < np.median(phis) < 0.95  # phi recovered through the projection
+    # the errors' correlation time: 1 + 2 (0.9 of the variance) 0.9 / 0.1 = 17.2 samples
+    assert 10 < np.median(taus) < 25, np.median(taus)
 
 
 def test_a_white_residual_is_left_to_the_other_covariances():
