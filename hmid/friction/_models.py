@@ -106,8 +106,8 @@ def correlated_covariance(
 
 
 def _at_least(base: np.ndarray, other: np.ndarray) -> tuple[np.ndarray, bool]:
-    """The smallest covariance (along ``other``'s eigendirections relative to ``base``) that
-    is at least both, and whether it is wider than ``base`` in some direction."""
+    """``base`` widened, along the eigendirections of ``other`` relative to it, to ``other``
+    wherever that is wider (so at least both in the Loewner order), and whether it widened."""
     lower = np.linalg.cholesky(base)
     inverse = np.linalg.inv(lower)
     ratio, vectors = np.linalg.eigh(inverse @ other @ inverse.T)

@@ -60,6 +60,8 @@ def test_short_correlated_records_are_covered_where_the_lag_window_is_not():
         z = stats.t.ppf(0.975, N / (2 * lags + 1))
         hits["lag window"].append(abs(coef[2]) <= z * np.sqrt(window_cov[2, 2]))
     coverage = {k: np.mean(v) for k, v in hits.items()}
+    # 300 records, s.e. of a coverage near 0.95 is 0.013: the band 0.92-0.99 is issue 15's
+    # (nominal +- 3 points, widened above by one s.e.); measured 0.93 with this seed
     assert 0.92 <= coverage["AR(1) + white"] <= 0.99, coverage
     assert coverage["lag window"] < 0.9, coverage  # what the lag window alone gave
     assert 0.8 < np.median(phis) < 0.95  # phi recovered through the projection

@@ -7,7 +7,7 @@ import time
 import _drawing_tasks
 import pandas as pd
 import pytest
-from _drawing_tasks import sleep, write_pid
+from _drawing_tasks import write_pid
 
 from hmid.plots import plot_scores
 from hmid.report import drawing as drawing_module
@@ -37,7 +37,7 @@ def test_a_failing_figure_fails_the_wait(tmp_path):
 
 def test_the_caller_draws_what_the_worker_has_not_begun(tmp_path):
     drawing = Drawing(workers=1).start()
-    drawing.submit(sleep, 1.0)  # the worker is busy while the caller reaches wait()
+    drawing.submit(time.sleep, 1.0)  # the worker is busy while the caller reaches wait()
     paths = [tmp_path / f"{k}.pid" for k in range(5)]
     for path in paths:
         drawing.submit(write_pid, path)
