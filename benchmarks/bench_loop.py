@@ -6,7 +6,7 @@ The demo experiment (``configs/demo.yaml``: 75 s of dynamic log at 1 kHz, the SL
 analysed up to its fit stage once (the stage cache under a temporary folder), then the loop stage
 (``pipeline.stages.loop`` with the rig's whole candidate library, one round: the demo's data add
 no effect) runs ``--repeats`` times in this process, after a warm-up run. Each candidate's cost is
-the wall time of its screen (``hmid.loop.screen.screen``, timed by wrapping the engine's
+the wall time of its screen (``hmid.loop.screen.screen``, timed by wrapping the loop's
 reference to it: the candidate fitted and tested with the model, its parameter profiled); the
 fixed part is the rest of the stage (the base's profile, cross-validation folds, diagnostics).
 Medians over the repeats. Issue 14's target is ≤ 1 s per 40 s of log for 7 candidates and one
@@ -36,7 +36,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--repeats must be at least 1")
 
     from hmid.experiment import load_experiment
-    from hmid.loop import engine
+    from hmid.loop import parallel
     from hmid.pipeline import stages
     from pipelines.identify import analyse
 
@@ -49,7 +49,7 @@ def main(argv: list[str] | None = None) -> int:
         if entry.role == "dynamic"
     )
     screens: dict[str, list[float]] = {}
-    screen = engine.screen
+    screen = parallel.screen
 
     def timed(current, candidate, signals, confidence):
         start = time.perf_counter()
@@ -63,11 +63,11 @@ def main(argv: list[str] | None = None) -> int:
         return time.perf_counter() - start
 
     run()  # compiles the Maxwell-arm scan
-    engine.screen = timed
+    parallel.screen = timed
     try:
         walls = [run() for _ in range(args.repeats)]
     finally:
-        engine.screen = screen
+        parallel.screen = screen
     costs = {name: statistics.median(times) for name, times in screens.items()}
     total = statistics.median(walls)
     fixed = statistics.median(

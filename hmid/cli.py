@@ -48,7 +48,7 @@ def _simulate(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     from hmid.pipeline.compilation import use_compilation_cache
-    from hmid.report.drawing import allow_workers
+    from hmid.workers import allow_workers
     from pipelines.identify import run
 
     if Path(args.results).is_file():  # said before anything is made beside it

@@ -11,8 +11,12 @@ from hmid.experiment import ExperimentConfig, load_experiment
 from hmid.pipeline import Runner, Stage
 from hmid.pipeline import stages as s
 from hmid.pipeline.reporting import FIGURE_MODULES, write_outputs
-from hmid.report.drawing import Drawing
 from hmid.runs import config_json, open_run
+from hmid.workers import Tasks
+
+#: What a worker screens the loop's candidates with (:mod:`hmid.loop.parallel`; columns carry
+#: their units, from pint's registry)
+LOOP_MODULES = ("hmid.loop.parallel", "jax", "hmid.io.units:unit_registry")
 
 
 def _section(*names):
@@ -85,7 +89,8 @@ def run(
     inputs = [config.resolve(p) for e in config.logs for p in (e.path, e.columns)]
     resolved = config_json(config)
     with open_run(results, config.name, config_path, resolved, config.seed, inputs) as folder:
-        drawing = Drawing(modules=FIGURE_MODULES).start()  # ready by the report
+        # the worker imports while the run works: by the loop and the report it is ready
+        workers = Tasks().start((*(LOOP_MODULES if config.loop else ()), *FIGURE_MODULES))
         runner = Runner(Path(results) / config.name / ".cache", force=force)
         artifacts = runner.run(STAGES, config, keep=REPORTED)
         folder.manifest.stages = {name: r.wall_s for name, r in runner.records.items()}
@@ -94,5 +99,5 @@ def run(
         for message in findings(artifacts):  # said on every run, the cached ones too
             warnings.warn(message, HmidWarning, stacklevel=2)
         with folder.manifest.stage("report"):
-            metrics = write_outputs(config, artifacts, folder.path, folder.provenance(), drawing)
+            metrics = write_outputs(config, artifacts, folder.path, folder.provenance(), workers)
     return folder.path, metrics

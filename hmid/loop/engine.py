@@ -22,8 +22,9 @@ from hmid.loop.candidates import ELASTIC, STIFFNESS, Setting, level, make_candid
 from hmid.loop.config import LoopSpec
 from hmid.loop.confounds import rivals, separating
 from hmid.loop.diagnostics import structure_scan
+from hmid.loop.parallel import screen_round
 from hmid.loop.result import Alternative, LoopResult, finish, make_effect, own_parameters
-from hmid.loop.screen import Screen, screen
+from hmid.loop.screen import Screen
 from hmid.loop.selection import Folds, bootstrap, change, out_of_fold
 from hmid.loop.statistics import NestedTest, holm
 
@@ -98,10 +99,7 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
     rows, effects, steps = [], [], []
     for round_no in range(1, spec.max_effects + 1):
         signals = with_elastic(signals, current, setting.position)
-        screened = []
-        for candidate in remaining:
-            with signals.scoped():  # its transforms and columns: of no use to the next
-                screened.append(screen(current, candidate, signals, spec.confidence))
+        screened = screen_round(current, remaining, signals, spec.confidence)
         screened = [s for s in screened if not s.adds_nothing]
         if not screened:
             break

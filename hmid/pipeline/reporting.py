@@ -13,7 +13,6 @@ from hmid.experiment import log_units
 from hmid.files import atomic_path, write_json
 from hmid.plots import plot_model, plot_scores
 from hmid.report import Figure, Report, Section, Table, write_report
-from hmid.report.drawing import Drawing
 
 #: The thesis accepted a model at R² above 0.85 (Ch. 4); we apply it to held-out data.
 R2_ACCEPT = 0.85
@@ -180,17 +179,19 @@ def _model_sections(fitted, figures: Path, tables: Path) -> list[Section]:
     return sections
 
 
-#: What the figure worker draws with (a light module: the same plot for every model)
-FIGURE_MODULES = ("hmid.plots",)
+#: What a worker draws with (a light module: the same plot for every model)
+FIGURE_MODULES = ("matplotlib.figure", "hmid.plots")
 
 
 def write_outputs(
     config, artifacts: dict[str, Any], run_dir: Path, provenance: dict, drawing=None
 ) -> dict:
     """Write every table, figure, metrics.json and the report; returns the metrics. The model
-    figures are drawn by ``drawing`` (:class:`~hmid.report.drawing.Drawing`; default: one
-    started here) beside the rest."""
-    drawing = Drawing(modules=FIGURE_MODULES).start() if drawing is None else drawing
+    figures are drawn by ``drawing`` (:class:`~hmid.workers.Tasks`; default: its own, started
+    here) beside the rest."""
+    from hmid.workers import Tasks
+
+    drawing = Tasks().start(FIGURE_MODULES) if drawing is None else drawing
     run_dir = Path(run_dir).resolve()  # figure paths must not depend on the working directory
     tables, figures = run_dir / "tables", run_dir / "figures"
     tables.mkdir(exist_ok=True)
@@ -344,6 +345,6 @@ def write_outputs(
         ),
         provenance=provenance,
     )
-    drawing.wait()  # the report embeds the figures
+    drawing.results()  # the report embeds the figures
     write_report(report, run_dir)
     return metrics

@@ -1,17 +1,17 @@
-"""Figures drawn by a worker process: the same files as inline, failures raised, and the
-caller drawing what the worker has not begun."""
+"""Tasks done by a worker process: the same results as inline (a figure's file byte for byte),
+failures raised, work shared, and the caller running what the worker has not begun."""
 
 import os
 import time
 
-import _drawing_tasks
+import _worker_tasks
 import pandas as pd
 import pytest
-from _drawing_tasks import write_pid
+from _worker_tasks import pid_after, square, write_pid
 
+from hmid import workers as workers_module
 from hmid.plots import plot_scores
-from hmid.report import drawing as drawing_module
-from hmid.report.drawing import WORKERS_VARIABLE, Drawing, default_workers
+from hmid.workers import WORKERS_VARIABLE, Tasks, default_workers
 
 SCORES = pd.DataFrame(
     {"model": ["a", "b"], "rmse (held-out)": [0.1, 0.2], "nrmse_fit_pct (held-out)": [90.0, 80.0]}
@@ -20,30 +20,52 @@ SCORES = pd.DataFrame(
 
 def test_a_worker_draws_the_same_file_as_inline(tmp_path):
     inline, drawn = tmp_path / "inline.png", tmp_path / "drawn.png"
-    Drawing(workers=0).submit(plot_scores, SCORES, inline)
+    Tasks(workers=0).submit(plot_scores, SCORES, inline)
     assert inline.exists()  # drawn at once
-    drawing = Drawing(workers=1).start()
+    drawing = Tasks(workers=1).start()
     drawing.submit(plot_scores, SCORES, drawn)
-    drawing.wait()
+    drawing.results()
     assert drawn.read_bytes() == inline.read_bytes()
 
 
 def test_a_failing_figure_fails_the_wait(tmp_path):
-    drawing = Drawing(workers=1)
+    drawing = Tasks(workers=1)
     drawing.submit(plot_scores, SCORES.drop(columns="rmse (held-out)"), tmp_path / "x.png")
     with pytest.raises(KeyError, match="rmse"):
-        drawing.wait()
+        drawing.results()
 
 
 def test_the_caller_draws_what_the_worker_has_not_begun(tmp_path):
-    drawing = Drawing(workers=1).start()
-    drawing.submit(time.sleep, 1.0)  # the worker is busy while the caller reaches wait()
+    drawing = Tasks(workers=1).start()
+    drawing.submit(time.sleep, 1.0)  # the worker is busy while the caller asks for results
     paths = [tmp_path / f"{k}.pid" for k in range(5)]
     for path in paths:
         drawing.submit(write_pid, path)
-    drawing.wait()
+    drawing.results()
     pids = [int(p.read_text()) for p in paths]  # every task ran, once
     assert pids[-1] == os.getpid()  # the last submitted: stolen first
+
+
+def test_results_come_in_the_order_submitted_wherever_they_ran():
+    tasks = Tasks(workers=1).start()
+    for value in range(6):  # the caller takes its share slowly: the worker has time for one
+        tasks.submit(square, value, here=lambda value=value: (time.sleep(0.2), ("here", value))[1])
+    found = tasks.results()
+    assert all(v in (k * k, ("here", k)) for k, v in enumerate(found))
+    assert found[0] == 0  # handed to the worker at once: never taken back
+    assert tasks.results() == []
+
+
+def test_with_a_limit_ahead_both_take_the_next_task_when_free():
+    """Held back, the tasks go to whichever process is free: submitted dearest first, the
+    worker and the caller each run one of the two long ones."""
+    tasks = Tasks(workers=1, ahead=0).start()
+    tasks.submit(time.sleep, 0.5)  # the worker's imports are done before the race begins
+    tasks.results()
+    for seconds in (1.0, 1.0, 0.05, 0.05):
+        tasks.submit(pid_after, seconds)
+    first, second, *_ = tasks.results()
+    assert first != second and os.getpid() in (first, second)
 
 
 def test_the_number_of_workers_is_read_from_the_environment(monkeypatch):
@@ -60,8 +82,8 @@ def test_a_worker_process_draws_its_own_figures(monkeypatch):
     import multiprocessing
 
     monkeypatch.delenv(WORKERS_VARIABLE, raising=False)
-    monkeypatch.setattr(drawing_module, "_ALLOWED", [True])
-    monkeypatch.setattr(drawing_module.os, "sched_getaffinity", lambda _: {0, 1}, raising=False)
+    monkeypatch.setattr(workers_module, "_ALLOWED", [True])
+    monkeypatch.setattr(workers_module.os, "sched_getaffinity", lambda _: {0, 1}, raising=False)
     assert default_workers() == 1
     monkeypatch.setattr(multiprocessing, "parent_process", lambda: object())
     assert default_workers() == 0
@@ -71,7 +93,7 @@ def test_a_caller_whose_main_module_may_be_unguarded_draws_inline(monkeypatch):
     """A spawned worker imports the program's main module: only hmid's command line, whose main
     is guarded, lets workers be chosen without the environment saying so."""
     monkeypatch.delenv(WORKERS_VARIABLE, raising=False)
-    monkeypatch.setattr(drawing_module, "_ALLOWED", [False])
+    monkeypatch.setattr(workers_module, "_ALLOWED", [False])
     assert default_workers() == 0
     monkeypatch.setenv(WORKERS_VARIABLE, "1")
     assert default_workers() == 1
@@ -80,13 +102,13 @@ def test_a_caller_whose_main_module_may_be_unguarded_draws_inline(monkeypatch):
 def test_a_dead_worker_s_figures_are_drawn_here(tmp_path):
     """A worker killed (out of memory, a signal) loses no figure: the caller draws the one it
     was drawing and every later one."""
-    drawing = Drawing(workers=1).start()
+    drawing = Tasks(workers=1).start()
     killed, later = tmp_path / "killed.pid", tmp_path / "later.pid"
-    drawing.submit(_drawing_tasks.die_in_a_worker, killed)
-    (dying, *_), deadline = drawing._queued[0], time.monotonic() + 60
+    drawing.submit(_worker_tasks.die_in_a_worker, killed)
+    dying, deadline = drawing._tasks[0].future, time.monotonic() + 60
     while not dying.done() and time.monotonic() < deadline:
         time.sleep(0.05)  # the worker begins it and dies
     drawing.submit(write_pid, later)
-    drawing.wait()
+    drawing.results()
     assert int(killed.read_text()) == int(later.read_text()) == os.getpid()
     assert drawing.workers == 0

@@ -1,4 +1,4 @@
-"""Tasks for the drawing tests: module-level, so that a spawned worker can import them."""
+"""Tasks for the worker tests: module-level, so that a spawned worker can import them."""
 
 import os
 from pathlib import Path
@@ -17,3 +17,16 @@ def die_in_a_worker(path: Path) -> None:
     if multiprocessing.parent_process() is not None:
         os._exit(1)
     write_pid(path)
+
+
+def square(value: float) -> float:
+    """A task with a result."""
+    return value * value
+
+
+def pid_after(seconds: float) -> int:
+    """Which process ran this task, after ``seconds``."""
+    import time
+
+    time.sleep(seconds)
+    return os.getpid()

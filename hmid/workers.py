@@ -1,0 +1,189 @@
+"""Work done beside the run on a second core: the report's figures, the loop's candidate screens.
+
+Workers are *spawned* (a fresh interpreter), never forked: the main process holds JAX's and
+BLAS's threads, and a fork of a threaded process may deadlock. A spawned worker imports what its
+tasks need (seconds, for modules that read a fitted result): :meth:`Tasks.start` has it import
+them early, and one pool serves every run of a process. A task gives what it gives inline: the
+same function on the same arguments. The caller, once done with its own part, takes back every
+task no worker has begun (:meth:`Tasks.results`), so work is shared however long each task is.
+"""
+
+from __future__ import annotations
+
+import atexit
+import os
+from collections.abc import Callable
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
+from typing import Any
+
+from hmid.errors import ConfigError
+
+#: ``HMID_WORKERS``: worker processes beside the run (0: everything in the calling process)
+WORKERS_VARIABLE = "HMID_WORKERS"
+
+_POOL: dict[int, ProcessPoolExecutor] = {}
+_ALLOWED = [False]  # set by hmid's command line (allow_workers)
+
+
+def allow_workers() -> None:
+    """Let :func:`default_workers` choose a worker. A spawned worker imports the program's main
+    module first, so its top level must be guarded by ``if __name__ == "__main__":`` (hmid's
+    command line is; a user's script calling the pipeline need not be, and works in its own
+    process unless it sets ``HMID_WORKERS``)."""
+    _ALLOWED[0] = True
+
+
+def default_workers() -> int:
+    """The environment's choice; else none unless :func:`allow_workers` was called; else one
+    worker where there is a second core (none on one core: it would only compete with the run;
+    more than one costs each its imports), and none in a worker process (a sweep's, a blind
+    suite's: its siblings use the other cores)."""
+    import multiprocessing
+
+    said = os.environ.get(WORKERS_VARIABLE)
+    if said is not None:
+        try:
+            workers = int(said)
+        except ValueError:
+            workers = -1
+        if workers < 0:
+            raise ConfigError(f"{WORKERS_VARIABLE}={said!r}: give a whole number >= 0")
+        return workers
+    if not _ALLOWED[0] or multiprocessing.parent_process() is not None:
+        return 0
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return 1 if (cores or 1) > 1 else 0
+
+
+def _warm(modules: tuple[str, ...]) -> None:
+    """A task that makes the pool spawn a worker (it spawns them as tasks come) and has it
+    import ``modules``; ``"module:function"`` also calls the function (e.g. to build a
+    registry that the first task would otherwise wait for)."""
+    import importlib
+
+    for entry in modules:
+        name, _, function = entry.partition(":")
+        module = importlib.import_module(name)
+        if function:
+            getattr(module, function)()
+
+
+def _pool(workers: int) -> ProcessPoolExecutor:
+    pool = _POOL.get(workers)
+    if pool is None:
+        from multiprocessing import get_context
+
+        pool = _POOL[workers] = ProcessPoolExecutor(workers, mp_context=get_context("spawn"))
+        if len(_POOL) == 1:
+            atexit.register(shutdown)
+    return pool
+
+
+def shutdown() -> None:
+    """Stop the workers (at exit, or to free their memory)."""
+    while _POOL:
+        _POOL.popitem()[1].shutdown(wait=True, cancel_futures=True)
+
+
+@dataclass
+class _Task:
+    fn: Callable[..., Any]
+    args: tuple
+    here: Callable[[], Any]  # what the caller runs if it takes the task itself
+    future: Future | None = None  # None while held back from the workers
+
+
+class Tasks:
+    """Submit module-level functions with picklable arguments; :meth:`results` gives their
+    results in order once all are done and raises the first failure. With no workers each runs
+    at once, in the caller.
+
+    ``ahead``: how many tasks each worker is handed beyond the one it runs (None: all at once,
+    so that workers go on while the caller does other things). With a limit, the rest are held
+    back, and the caller, when it asks for the results, takes them in the order submitted while
+    the workers are kept fed: submitted dearest first, that shares them out as evenly as the
+    longest allows.
+    """
+
+    def __init__(self, workers: int | None = None, ahead: int | None = None) -> None:
+        self.workers = default_workers() if workers is None else workers
+        self.ahead = ahead
+        self._tasks: list[_Task] = []
+
+    def start(self, modules: tuple[str, ...] = ()) -> Tasks:
+        """Start the workers now, importing ``modules``, while the caller works."""
+        if self.workers:
+            try:
+                for _ in range(self.workers):
+                    _pool(self.workers).submit(_warm, tuple(modules))
+            except BrokenProcessPool:
+                self._broken()
+        return self
+
+    def submit(
+        self, fn: Callable[..., Any], /, *args: Any, here: Callable[[], Any] | None = None
+    ) -> None:
+        """Queue ``fn(*args)``; ``here`` is what the caller runs instead if it runs the task
+        itself (default the same call), e.g. the same work on objects it already holds."""
+        task = _Task(fn, args, (lambda: fn(*args)) if here is None else here)
+        self._tasks.append(task)
+        if self.workers:
+            self._hand_out(self._tasks)
+        else:
+            task.future = _finished(task.here())
+
+    def results(self) -> list[Any]:
+        """Every task's result, in the order submitted. The caller runs the tasks held back
+        (first to last, handing out more as workers free up), then what no worker has begun
+        (from the last submitted back), then waits for the rest; a task whose worker died is
+        run here. The queue is empty afterwards."""
+        tasks, self._tasks = self._tasks, []
+        while True:
+            self._hand_out(tasks)
+            held = next((task for task in tasks if task.future is None), None)
+            if held is None:
+                break
+            held.future = _finished(held.here())
+        for task in reversed(tasks):
+            if task.future.cancel():
+                task.future = _finished(task.here())
+        out = []
+        for task in tasks:
+            try:
+                out.append(task.future.result())
+            except BrokenProcessPool:
+                self._broken()
+                out.append(task.here())
+        return out
+
+    def _hand_out(self, tasks: list[_Task]) -> None:
+        """Submit held-back tasks while the workers have room for them."""
+        limit = None if self.ahead is None else self.workers * (1 + self.ahead)
+        for task in tasks:
+            if not self.workers:
+                return
+            if task.future is not None:
+                continue
+            busy = sum(1 for t in tasks if t.future is not None and not t.future.done())
+            if limit is not None and busy >= limit:
+                return
+            try:
+                task.future = _pool(self.workers).submit(task.fn, *task.args)
+            except BrokenProcessPool:
+                self._broken()
+
+    def _broken(self) -> None:
+        """A worker died (killed, out of memory): these tasks run inline from now on, and the
+        next :class:`Tasks` starts a fresh pool."""
+        pool = _POOL.pop(self.workers, None)
+        if pool is not None:
+            pool.shutdown(wait=False, cancel_futures=True)
+        self.workers = 0
+
+
+def _finished(value: Any) -> Future:
+    future: Future = Future()
+    future.set_result(value)
+    return future
