@@ -48,13 +48,17 @@ def _simulate(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     from hmid.pipeline.compilation import use_compilation_cache
-    from hmid.workers import allow_workers
-    from pipelines.identify import run
+    from hmid.workers import Tasks, allow_workers
 
     if Path(args.results).is_file():  # said before anything is made beside it
         raise NotADirectoryError(20, "Not a directory", str(args.results))
-    use_compilation_cache(Path(args.results) / ".jax-cache")
+    use_compilation_cache(Path(args.results) / ".jax-cache")  # before a worker starts
     allow_workers()  # this program's main module is guarded: a spawned worker may import it
+    tasks = Tasks().start()  # the worker's interpreter starts while this one imports
+    from pipelines.identify import run, worker_imports
+
+    tasks.start(worker_imports(Path(args.config)))
+
     run_dir, metrics = run(Path(args.config), results=Path(args.results), force=args.force)
     print(console_summary(metrics))
     print(f"report: {run_dir / 'report.html'}")

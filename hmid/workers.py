@@ -82,9 +82,15 @@ def _pool(workers: int) -> ProcessPoolExecutor:
 
 
 def shutdown() -> None:
-    """Stop the workers (at exit, or to free their memory)."""
+    """Stop the workers (at exit, or to free their memory). They are killed rather than asked
+    to finish: by now no result is awaited from them, and an interpreter that has loaded JAX
+    and matplotlib takes most of a second to tear itself down."""
     while _POOL:
-        _POOL.popitem()[1].shutdown(wait=True, cancel_futures=True)
+        pool = _POOL.popitem()[1]
+        processes = list((getattr(pool, "_processes", None) or {}).values())  # no public handle
+        pool.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            process.kill()
 
 
 @dataclass

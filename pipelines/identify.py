@@ -4,9 +4,10 @@ then tables, figures, metrics and the report in a new run folder."""
 from __future__ import annotations
 
 import warnings
+from functools import partial
 from pathlib import Path
 
-from hmid.errors import HmidWarning
+from hmid.errors import ConfigError, HmidWarning
 from hmid.experiment import ExperimentConfig, load_experiment
 from hmid.pipeline import Runner, Stage
 from hmid.pipeline import stages as s
@@ -81,6 +82,20 @@ def findings(artifacts: dict) -> list[str]:
     return out
 
 
+def worker_imports(config_path: Path) -> tuple[str, ...]:
+    """What a worker imports first for this experiment: its families' modules, read from the
+    file before it is validated, so that the worker starts on them while the run loads (nothing
+    if the file does not say: validation reports it, with the file's name)."""
+    from hmid.config import read_yaml
+    from hmid.families import FAMILIES
+
+    try:
+        families = [FAMILIES[entry["family"]] for entry in read_yaml(config_path)["models"]]
+    except (ConfigError, KeyError, TypeError):
+        return ()
+    return tuple(dict.fromkeys(m for family in families for m in family.imports))
+
+
 def run(
     config_path: Path, *, results: Path = Path("results"), force: bool = False
 ) -> tuple[Path, dict]:
@@ -90,9 +105,14 @@ def run(
     resolved = config_json(config)
     with open_run(results, config.name, config_path, resolved, config.seed, inputs) as folder:
         # the worker imports while the run works: by the loop and the report it is ready
-        workers = Tasks().start((*(LOOP_MODULES if config.loop else ()), *FIGURE_MODULES))
+        # the worker imports what a stage needs while the run works before it: the families'
+        # modules now, the loop's and the figures' once the families are handed out
+        workers = Tasks().start(tuple(m for spec in config.models for m in type(spec).imports))
+        later = (*(LOOP_MODULES if config.loop else ()), *FIGURE_MODULES)
         runner = Runner(Path(results) / config.name / ".cache", force=force)
-        artifacts = runner.run(STAGES, config, keep=REPORTED)
+        artifacts = runner.run(
+            STAGES, config, keep=REPORTED, before={"compare": partial(workers.start, later)}
+        )
         folder.manifest.stages = {name: r.wall_s for name, r in runner.records.items()}
         folder.manifest.cache = {name: r.cached for name, r in runner.records.items()}
         folder.manifest.reused = {f.name: f.reused for f in artifacts["fit"] if f.reused}

@@ -144,6 +144,8 @@ class FamilySpec(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
     family: str
     fills_slot: ClassVar[bool] = True  # models the rig's actuator force (its {kind: model})
+    #: what its fit imports (seconds for some): a worker that may fit it imports them ahead
+    imports: ClassVar[tuple[str, ...]] = ()
 
     @classmethod
     def __pydantic_init_subclass__(cls, **kwargs):

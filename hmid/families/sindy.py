@@ -40,7 +40,7 @@ Config (``models: [{family: sindy, ...}]``)::
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, ClassVar, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
@@ -116,6 +116,7 @@ class SINDySpec(FamilySpec):
     """A SINDy force map and its equation of motion; see the module docstring for the keys."""
 
     family: Literal["sindy"] = "sindy"
+    imports: ClassVar[tuple[str, ...]] = ("hmid.models.sindy",)
     name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$")] = "stlsq"
     variables: Annotated[tuple[Variable, ...], Field(min_length=1)] = ("x", "v", "P")
     degree: Annotated[int, Field(ge=1, le=4)] = 3

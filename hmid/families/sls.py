@@ -16,7 +16,7 @@ posterior (positive by construction) would only hide at the prior's edge.
 from __future__ import annotations
 
 import hashlib
-from typing import Annotated, Literal
+from typing import Annotated, ClassVar, Literal
 
 import numpy as np
 import pandas as pd
@@ -33,6 +33,7 @@ class SLSSpec(FamilySpec):
     """Bayesian SLS: model options, noise model, and the sampler's budget."""
 
     family: Literal["sls"] = "sls"
+    imports: ClassVar[tuple[str, ...]] = ("hmid.models.sls", "hmid.models.sls.collapsed")
     name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$")] = "sls"
     spring: Literal["linear", "cubic"] = "cubic"
     arms: Annotated[int, Field(ge=1, le=3)] = 1

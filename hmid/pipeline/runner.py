@@ -19,7 +19,7 @@ import inspect
 import json
 import time
 import warnings
-from collections.abc import Callable, Collection, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
@@ -102,11 +102,18 @@ class Runner:
         return hashlib.sha256(payload.encode()).hexdigest()
 
     def run(
-        self, stages: Sequence[Stage], config: Any, *, keep: Collection[str] | None = None
+        self,
+        stages: Sequence[Stage],
+        config: Any,
+        *,
+        keep: Collection[str] | None = None,
+        before: Mapping[str, Callable[[], None]] | None = None,
     ) -> dict[str, Any]:
         """Run ``stages`` (each after its inputs); returns every artifact by stage name, or only
         those named in ``keep``: the others are let go after their last reader, so that a long
-        log is not held as loaded, as smoothed and as signals at once."""
+        log is not held as loaded, as smoothed and as signals at once. ``before[name]()`` is
+        called before stage ``name`` (to have a worker import what a later stage needs)."""
+        before = before or {}
         artifacts: dict[str, Any] = {}
         last_read = {s.name: i for i, s in enumerate(stages)}
         for i, stage in enumerate(stages):
@@ -116,6 +123,8 @@ class Runner:
             missing = [name for name in stage.inputs if name not in artifacts]
             if missing:
                 raise ValueError(f"stage {stage.name!r} needs {missing}, not produced before it")
+            if stage.name in before:
+                before[stage.name]()
             key = self._key(stage, config, [self.records[n].key for n in stage.inputs])
             path = self.cache_dir / f"{stage.name}-{key[:20]}.pkl"
             start = time.perf_counter()

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,7 @@ from hmid.io import Log, load_column_map, read_log
 from hmid.metrics import score
 from hmid.split import validation_masks
 from hmid.summary import LogSummary, summarize
+from hmid.workers import Tasks
 
 
 @dataclass(frozen=True)
@@ -218,10 +220,46 @@ def fit(
     # held-out force can leak into a fit
     hidden = signals.with_columns(target=np.where(signals.train, signals.target, np.nan))
     data = FitData(hidden, config.rig, "train")
-    fitted: list[Fitted] = []
+    # families are independent: shared with a worker (hmid.workers), each process taking the
+    # next when it is free; a family fits the same wherever it runs
+    tasks = Tasks(ahead=1)
     for spec in config.models:
-        fitted.extend(spec.fit(data, context))
+        tasks.submit(_fit_family, spec, data, context, here=partial(spec.fit, data, context))
+    fitted: list[Fitted] = []
+    for found in tasks.results():
+        if isinstance(found, _Fitted):  # from a worker: its warnings said here
+            for caught in found.warnings:
+                warnings.warn_explicit(caught.message, caught.category, caught.filename,
+                                       caught.lineno)  # fmt: skip
+            found = found.models
+        fitted.extend(found)
     return fitted
+
+
+@dataclass(frozen=True)
+class _Fitted:
+    models: list[Fitted]
+    warnings: list
+
+
+def _fit_family(spec, data: FitData, context: FitContext) -> _Fitted:
+    """In a worker: the family fitted, with the warnings it gave (the run says them)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        models = spec.fit(data, context)
+    return _Fitted(models, [_Warning.of(w) for w in caught])
+
+
+@dataclass(frozen=True)
+class _Warning:
+    message: str
+    category: type
+    filename: str
+    lineno: int
+
+    @classmethod
+    def of(cls, w: warnings.WarningMessage) -> _Warning:
+        return cls(str(w.message), w.category, w.filename, w.lineno)
 
 
 @dataclass(frozen=True)

@@ -256,3 +256,19 @@ def test_an_unknown_loop_candidate_is_a_one_line_config_error(workspace):
     with pytest.raises(ConfigError, match="magic") as err:
         load_experiment(path)
     assert "\n" not in str(err.value)
+
+
+def test_a_worker_process_gives_the_same_numbers(workspace, monkeypatch):
+    """Families, the loop's screens and the figures shared with a worker (hmid.workers): every
+    table as in one process."""
+    from hmid.workers import WORKERS_VARIABLE
+
+    models = [*EXPERIMENT["models"], {"family": "sindy", "free_run": {"enabled": False}}]
+    path = _config(workspace, models=models, loop={"base": "poly:cubic_xvP"})
+    tables = {}
+    for workers in ("0", "1"):
+        monkeypatch.setenv(WORKERS_VARIABLE, workers)
+        run_dir, _ = run(path, results=workspace / f"results-{workers}", force=True)
+        tables[workers] = {p.name: p.read_bytes() for p in (run_dir / "tables").iterdir()}
+    assert tables["1"] == tables["0"]
+    assert {"loop_tests.csv", "coefficients_sindy_stlsq.csv"} <= set(tables["0"])
