@@ -82,13 +82,17 @@ def _pool(workers: int) -> ProcessPoolExecutor:
 
 
 def shutdown() -> None:
-    """Stop the workers (at exit, or to free their memory). They are killed rather than asked
-    to finish: by now no result is awaited from them, and an interpreter that has loaded JAX
-    and matplotlib takes most of a second to tear itself down."""
+    """Stop the workers (when a program is done with them, or to free their memory). They are
+    killed rather than asked to finish: no result is awaited from them, and an interpreter
+    that has loaded JAX and matplotlib takes most of a second to tear itself down. (At exit it
+    comes too late for that: the interpreter first joins the pool's thread, which waits for
+    the workers to finish.)"""
     while _POOL:
         pool = _POOL.popitem()[1]
         processes = list((getattr(pool, "_processes", None) or {}).values())  # no public handle
-        pool.shutdown(wait=False, cancel_futures=True)
+        # futures left uncancelled: the pool's thread marks them broken when it sees the dead
+        # workers, and Python 3.11's raises if they were cancelled
+        pool.shutdown(wait=False)
         for process in processes:
             process.kill()
 
