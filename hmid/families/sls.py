@@ -33,7 +33,11 @@ class SLSSpec(FamilySpec):
     """Bayesian SLS: model options, noise model, and the sampler's budget."""
 
     family: Literal["sls"] = "sls"
-    imports: ClassVar[tuple[str, ...]] = ("hmid.models.sls", "hmid.models.sls.collapsed")
+    imports: ClassVar[tuple[str, ...]] = (
+        "hmid.models.sls",
+        "hmid.models.sls.collapsed",
+        "hmid.io.units:unit_registry",  # the sign check's columns carry units
+    )
     name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$")] = "sls"
     spring: Literal["linear", "cubic"] = "cubic"
     arms: Annotated[int, Field(ge=1, le=3)] = 1
@@ -132,17 +136,6 @@ class SLSSpec(FamilySpec):
             )
         return segments
 
-    def _sign_check(self, data: FitData):
-        """Sign findings of the least-squares structure (tau profiled, signs free)."""
-        from hmid.balance import parameters, profile, sign_findings
-
-        structure = self.structure(data.rig)
-        signals = data.signals.trim(*structure.margins)
-        fitted = profile(structure, signals)
-        table = parameters(fitted, signals, 0.95)
-        reads = dict(zip(fitted.columns.names, fitted.columns.reads, strict=True))
-        return sign_findings(self.model_names()[0], table, reads, data.rig.position)
-
     @property
     def method(self) -> str:
         """ "exact" (one arm: the linear parameters integrated out) or "mcmc" (emcee)."""
@@ -191,8 +184,10 @@ class SLSSpec(FamilySpec):
         from hmid.models.base import fit_statistics
         from hmid.models.sls import SLSModel, initial_fit, sls_data
         from hmid.models.sls.diagnostics import lag1_autocorrelation, residuals_correlated
+        from hmid.workers import Tasks
 
-        findings = self._sign_check(train)
+        checking = Tasks()  # the sign check does not need the posterior: a worker's, if free
+        checking.submit(_sign_check, self, train)
         data = sls_data(self._segments(train, "train"))
         use = np.asarray(data.use)
         model = SLSModel(self.spring, self.arms, "iid")
@@ -214,6 +209,7 @@ class SLSSpec(FamilySpec):
                 result, adjustment = sandwich_adjust(result, data, n_linear, self.spring == "cubic")
         else:
             result = self._mcmc(model, data, start, noise, context)
+        (findings,) = checking.results()
         fitted = SLSFitted(
             self,
             noise,
@@ -251,3 +247,15 @@ class SLSSpec(FamilySpec):
                 interval=fitted.interval_note(),
             )
         ]
+
+
+def _sign_check(spec: SLSSpec, data: FitData):
+    """Sign findings of the least-squares structure (tau profiled, signs free)."""
+    from hmid.balance import parameters, profile, sign_findings
+
+    structure = spec.structure(data.rig)
+    signals = data.signals.trim(*structure.margins)
+    fitted = profile(structure, signals)
+    table = parameters(fitted, signals, 0.95)
+    reads = dict(zip(fitted.columns.names, fitted.columns.reads, strict=True))
+    return sign_findings(spec.model_names()[0], table, reads, data.rig.position)
