@@ -5,9 +5,11 @@ Run: ``.venv/bin/python benchmarks/bench_loop.py [--repeats 3]`` (about a minute
 The demo experiment (``configs/demo.yaml``: 75 s of dynamic log at 1 kHz, the SLS base) is
 analysed up to its fit stage once (the stage cache under a temporary folder), then the loop stage
 (``pipeline.stages.loop`` with the rig's whole candidate library, one round: the demo's data add
-no effect) runs ``--repeats`` times in this process, after a warm-up run. Each candidate's cost is
-the wall time of its screen (``hmid.loop.screen.screen``, timed by wrapping the loop's
-reference to it: the candidate fitted and tested with the model, its parameter profiled); the
+no effect) runs ``--repeats`` times in this process, after a warm-up run, with no worker (each
+screen's own cost; ``hmid run`` shares the screens with one, see ``hmid.loop.parallel``). Each
+candidate's cost is the wall time of its screen (``hmid.loop.screen.screen``, timed by wrapping
+the loop's reference to it: the candidate fitted and tested with the model, its parameter
+profiled); the
 fixed part is the rest of the stage (the base's profile, cross-validation folds, diagnostics).
 Medians over the repeats. Issue 14's target is ≤ 1 s per 40 s of log for 7 candidates and one
 round: the table gives every candidate's cost per 40 s, so any 7 can be added up, and the
@@ -18,6 +20,7 @@ about the sum of theirs.
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
 import tempfile
@@ -32,6 +35,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args(argv)
+    os.environ["HMID_WORKERS"] = "0"  # every screen in this process, timed
     if args.repeats < 1:
         parser.error("--repeats must be at least 1")
 
