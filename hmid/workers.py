@@ -1,4 +1,4 @@
-"""Work done beside the run on a second core: the report's figures, the loop's candidate screens.
+"""Work done beside the run on a second core: model families, loop screens, report figures.
 
 Workers are *spawned* (a fresh interpreter), never forked: the main process holds JAX's and
 BLAS's threads, and a fork of a threaded process may deadlock. A spawned worker imports what its
@@ -36,12 +36,15 @@ def allow_workers() -> None:
 
 
 def default_workers() -> int:
-    """The environment's choice; else none unless :func:`allow_workers` was called; else one
-    worker where there is a second core (none on one core: it would only compete with the run;
-    more than one costs each its imports), and none in a worker process (a sweep's, a blind
-    suite's: its siblings use the other cores)."""
+    """None in a worker process (this pool's, a sweep's, a blind suite's: its siblings use the
+    other cores, and a worker's own tasks run where it is); else the environment's choice; else
+    none unless :func:`allow_workers` was called; else one worker where there is a second core
+    (none on one core: it would only compete with the run; more than one costs each its
+    imports)."""
     import multiprocessing
 
+    if multiprocessing.parent_process() is not None:
+        return 0
     said = os.environ.get(WORKERS_VARIABLE)
     if said is not None:
         try:
@@ -51,7 +54,7 @@ def default_workers() -> int:
         if workers < 0:
             raise ConfigError(f"{WORKERS_VARIABLE}={said!r}: give a whole number >= 0")
         return workers
-    if not _ALLOWED[0] or multiprocessing.parent_process() is not None:
+    if not _ALLOWED[0]:
         return 0
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     return 1 if (cores or 1) > 1 else 0

@@ -76,9 +76,10 @@ def test_the_number_of_workers_is_read_from_the_environment(monkeypatch):
         default_workers()
 
 
-def test_a_worker_process_draws_its_own_figures(monkeypatch):
+def test_a_worker_process_runs_its_own_tasks(monkeypatch):
     """In a sweep's worker the siblings use the other cores (and a daemonic worker may not
-    start processes at all)."""
+    start processes at all); in this pool's, a task's own tasks (the SLS family's sign check)
+    run where it is, whatever the environment says."""
     import multiprocessing
 
     monkeypatch.delenv(WORKERS_VARIABLE, raising=False)
@@ -86,6 +87,8 @@ def test_a_worker_process_draws_its_own_figures(monkeypatch):
     monkeypatch.setattr(workers_module.os, "sched_getaffinity", lambda _: {0, 1}, raising=False)
     assert default_workers() == 1
     monkeypatch.setattr(multiprocessing, "parent_process", lambda: object())
+    assert default_workers() == 0
+    monkeypatch.setenv(WORKERS_VARIABLE, "1")
     assert default_workers() == 0
 
 

@@ -222,7 +222,7 @@ def fit(
     data = FitData(hidden, config.rig, "train")
     # families are independent: shared with a worker (hmid.workers), each process taking the
     # next when it is free; a family fits the same wherever it runs
-    tasks = Tasks(ahead=1)
+    tasks = Tasks(ahead=1) if len(config.models) > 1 else Tasks(workers=0)
     for spec in config.models:
         tasks.submit(_fit_family, spec, data, context, here=partial(spec.fit, data, context))
     fitted: list[Fitted] = []
