@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import atexit
 import os
+import warnings
 from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -106,12 +107,45 @@ class _Task:
     args: tuple
     here: Callable[[], Any]  # what the caller runs if it takes the task itself
     future: Future | None = None  # None while held back from the workers
+    there: bool = False  # its future is a worker's (a _Done)
+
+
+@dataclass(frozen=True)
+class _Warning:
+    message: str
+    category: type
+    filename: str
+    lineno: int
+
+
+@dataclass(frozen=True)
+class _Done:
+    value: Any
+    warnings: tuple[_Warning, ...]
+
+
+def _call(fn: Callable[..., Any], args: tuple) -> _Done:
+    """In a worker: ``fn(*args)`` and the warnings it gave, which the caller says."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        value = fn(*args)
+    said = (_Warning(str(w.message), w.category, w.filename, w.lineno) for w in caught)
+    return _Done(value, tuple(said))
+
+
+def _value(task: _Task) -> Any:
+    found = task.future.result()
+    if not task.there:
+        return found
+    for w in found.warnings:
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return found.value
 
 
 class Tasks:
     """Submit module-level functions with picklable arguments; :meth:`results` gives their
-    results in order once all are done and raises the first failure. With no workers each runs
-    at once, in the caller.
+    results in order once all are done and raises the first failure (a worker's warnings are
+    said in the caller). With no workers each runs at once, in the caller.
 
     ``ahead``: how many tasks each worker is handed beyond the one it runs (None: all at once,
     so that workers go on while the caller does other things). With a limit, the rest are held
@@ -161,11 +195,11 @@ class Tasks:
             held.future = _finished(held.here())
         for task in reversed(tasks):
             if task.future.cancel():
-                task.future = _finished(task.here())
+                task.future, task.there = _finished(task.here()), False
         out = []
         for task in tasks:
             try:
-                out.append(task.future.result())
+                out.append(_value(task))
             except BrokenProcessPool:
                 self._broken()
                 out.append(task.here())
@@ -183,9 +217,11 @@ class Tasks:
             if limit is not None and busy >= limit:
                 return
             try:
-                task.future = _pool(self.workers).submit(task.fn, *task.args)
+                task.future = _pool(self.workers).submit(_call, task.fn, task.args)
             except BrokenProcessPool:
                 self._broken()
+            else:
+                task.there = True
 
     def _broken(self) -> None:
         """A worker died (killed, out of memory): these tasks run inline from now on, and the

@@ -30,3 +30,11 @@ def pid_after(seconds: float) -> int:
 
     time.sleep(seconds)
     return os.getpid()
+
+
+def warn(text: str) -> int:
+    """A task that warns."""
+    import warnings
+
+    warnings.warn(text, UserWarning, stacklevel=1)
+    return os.getpid()

@@ -7,7 +7,7 @@ import time
 import _worker_tasks
 import pandas as pd
 import pytest
-from _worker_tasks import pid_after, square, write_pid
+from _worker_tasks import pid_after, square, warn, write_pid
 
 from hmid import workers as workers_module
 from hmid.plots import plot_scores
@@ -54,6 +54,15 @@ def test_results_come_in_the_order_submitted_wherever_they_ran():
     assert all(v in (k * k, ("here", k)) for k, v in enumerate(found))
     assert found[0] == 0  # handed to the worker at once: never taken back
     assert tasks.results() == []
+
+
+def test_a_worker_s_warnings_are_said_by_the_caller():
+    tasks = Tasks(workers=1).start()
+    tasks.submit(warn, "said in the worker")
+    tasks.submit(time.sleep, 0.5)  # the caller takes this one; the worker has the first
+    with pytest.warns(UserWarning, match="said in the worker"):
+        pid, _ = tasks.results()
+    assert pid != os.getpid()
 
 
 def test_with_a_limit_ahead_both_take_the_next_task_when_free():

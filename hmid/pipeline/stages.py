@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -224,42 +223,8 @@ def fit(
     # next when it is free; a family fits the same wherever it runs
     tasks = Tasks(ahead=1) if len(config.models) > 1 else Tasks(workers=0)
     for spec in config.models:
-        tasks.submit(_fit_family, spec, data, context, here=partial(spec.fit, data, context))
-    fitted: list[Fitted] = []
-    for found in tasks.results():
-        if isinstance(found, _Fitted):  # from a worker: its warnings said here
-            for caught in found.warnings:
-                warnings.warn_explicit(caught.message, caught.category, caught.filename,
-                                       caught.lineno)  # fmt: skip
-            found = found.models
-        fitted.extend(found)
-    return fitted
-
-
-@dataclass(frozen=True)
-class _Fitted:
-    models: list[Fitted]
-    warnings: list
-
-
-def _fit_family(spec, data: FitData, context: FitContext) -> _Fitted:
-    """In a worker: the family fitted, with the warnings it gave (the run says them)."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("default")
-        models = spec.fit(data, context)
-    return _Fitted(models, [_Warning.of(w) for w in caught])
-
-
-@dataclass(frozen=True)
-class _Warning:
-    message: str
-    category: type
-    filename: str
-    lineno: int
-
-    @classmethod
-    def of(cls, w: warnings.WarningMessage) -> _Warning:
-        return cls(str(w.message), w.category, w.filename, w.lineno)
+        tasks.submit(spec.fit, data, context)
+    return [model for models in tasks.results() for model in models]
 
 
 @dataclass(frozen=True)
