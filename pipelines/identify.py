@@ -93,6 +93,10 @@ def worker_imports(config_path: Path) -> tuple[str, ...]:
         families = [FAMILIES[entry["family"]] for entry in read_yaml(config_path)["models"]]
     except (ConfigError, KeyError, TypeError):
         return ()
+    return _imports(families)
+
+
+def _imports(families) -> tuple[str, ...]:
     return tuple(dict.fromkeys(m for family in families for m in family.imports))
 
 
@@ -104,10 +108,9 @@ def run(
     inputs = [config.resolve(p) for e in config.logs for p in (e.path, e.columns)]
     resolved = config_json(config)
     with open_run(results, config.name, config_path, resolved, config.seed, inputs) as folder:
-        # the worker imports while the run works: by the loop and the report it is ready
         # the worker imports what a stage needs while the run works before it: the families'
         # modules now, the loop's and the figures' once the families are handed out
-        workers = Tasks().start(tuple(m for spec in config.models for m in type(spec).imports))
+        workers = Tasks().start(_imports(type(spec) for spec in config.models))
         later = (*(LOOP_MODULES if config.loop else ()), *FIGURE_MODULES)
         runner = Runner(Path(results) / config.name / ".cache", force=force)
         artifacts = runner.run(
