@@ -66,7 +66,7 @@ from threadpoolctl import threadpool_limits
 
 from hmid.models.sindy import SINDyForceModel
 from hmid.models.sindy._intervals import percentile_intervals
-from hmid.models.sindy._model import DOUBT
+from hmid.models.sindy._model import DOUBT, SUPPORT
 from hmid.report.markdown import markdown_table
 
 #: The true terms and coefficients (SI), the rig's muscle without memory.
@@ -98,9 +98,9 @@ def oracle(X: pd.DataFrame, y: np.ndarray, stick_speed: float) -> np.ndarray:
     return np.linalg.lstsq(design / scale, y[rows], rcond=None)[0] / scale
 
 
-def replicate(X: pd.DataFrame, y: np.ndarray, seed: int) -> dict:
+def replicate(X: pd.DataFrame, y: np.ndarray, seed: int, support: str) -> dict:
     """One fit: its support, both intervals of the true terms, and the oracle's estimates."""
-    model = SINDyForceModel(keep=(), confidence=CONFIDENCE, seed=seed).fit(X, y)
+    model = SINDyForceModel(keep=(), confidence=CONFIDENCE, seed=seed, support=support).fit(X, y)
     names = [f.name for f in model.features_]
     index = [names.index(term) for term in TRUE]
     _, boot = percentile_intervals(model.ensemble_coef_, CONFIDENCE)
@@ -133,7 +133,7 @@ def summarise(fits: list[dict], truth: np.ndarray, method: str) -> dict:
     }
 
 
-def run_case(index: int, case: tuple, X: pd.DataFrame, reps: int) -> dict:
+def run_case(index: int, case: tuple, X: pd.DataFrame, reps: int, support: str) -> dict:
     label, model, quartic, noisy_x, judged = case
     x_full = float(X["x"].abs().max())
     clean = true_force(X) + quartic * (X["x"].to_numpy() / x_full) ** 4
@@ -145,7 +145,7 @@ def run_case(index: int, case: tuple, X: pd.DataFrame, reps: int) -> dict:
         rng = np.random.default_rng(np.random.SeedSequence(ENTROPY, spawn_key=(index, rep)))
         y = clean + noise(model, n, sigma, rng)
         Xm = X.assign(x=X["x"] + noise("smoothed", n, SIGMA_X, rng)) if noisy_x else X
-        fits.append(replicate(Xm, y, seed=rep))
+        fits.append(replicate(Xm, y, seed=rep, support=support))
     row = {
         "noise": label,
         "judged": "yes" if judged else "separately",
@@ -166,19 +166,23 @@ def main() -> int:
     parser.add_argument("--replications", type=int, default=30)
     parser.add_argument("--seconds", type=float, default=20.0)
     parser.add_argument("--only", default="", help="cases whose label contains one of a,b,...")
+    parser.add_argument(
+        "--support", choices=SUPPORT, default=SUPPORT[0], help="how the fits choose the support"
+    )
     args = parser.parse_args()
     X = trajectory(args.seconds)
     start = time.perf_counter()
     with threadpool_limits(limits=1):  # one core; also spares a shared machine's BLAS threads
         rows = [
-            run_case(i, case, X, args.replications)
+            run_case(i, case, X, args.replications, args.support)
             for i, case in enumerate(CASES)
             if any(text in case[0] for text in args.only.split(","))
         ]
     wall = time.perf_counter() - start
     print(
         f"SINDy coefficients of the true terms ({', '.join(TRUE)}), {100 * CONFIDENCE:g} % "
-        f"intervals, autocov (default) vs bootstrap percentile; {args.replications} "
+        f"intervals, autocov (default) vs bootstrap percentile; support by {args.support}; "
+        f"{args.replications} "
         f"replications x {args.seconds:g} s at {RATE:g} Hz ({wall:.0f} s)\n"
     )
     print(markdown_table(pd.DataFrame(rows), float_format=".3f"))

@@ -88,6 +88,10 @@ class SINDyResult(FittedModel):
         tables = []
         if force.path_ is not None:
             tables.append((force.path_.table(), "Threshold path: blocked cross-validation"))
+        if force.choice_ is not None:
+            names = [f.pretty for f in force.features_]
+            tables.append((force.choice_.table(names).head(12),
+                           "Candidate supports: blocked cross-validation"))  # fmt: skip
         figures = []
         if self.free_run is not None:
             text.append(self.free_run.text())
@@ -117,15 +121,27 @@ def interval_note(force: SINDyForceModel) -> str:
 
 def _threshold_text(force: SINDyForceModel) -> str:
     if force.path_ is None:
-        return f"Threshold: {force.threshold_:.3g} (fixed in the config)."
-    path = force.path_
-    rule = "one-standard-error rule" if path.rule == "one_se" else "minimum CV error"
-    return (
-        f"Threshold {force.threshold_:.3g} (a term is kept if its RMS contribution exceeds this "
-        f"fraction of the standard deviation of F_m), chosen on the training rows only by "
-        f"{path.folds}-fold blocked cross-validation along {len(path.thresholds)} thresholds "
-        f"({rule}; the middle of the run {path.plateau[0]:.3g}–{path.plateau[1]:.3g} that keeps "
-        f"the same {int(np.count_nonzero(force.coef_))} terms)."
+        text = f"Threshold: {force.threshold_:.3g} (fixed in the config)."
+    else:
+        path = force.path_
+        rule = "one-standard-error rule" if path.rule == "one_se" else "minimum CV error"
+        terms = int(path.n_terms[np.searchsorted(path.thresholds, path.plateau[0])])
+        text = (
+            f"Threshold {force.threshold_:.3g} (a term is kept if its RMS contribution exceeds "
+            f"this fraction of the standard deviation of F_m), chosen on the training rows only "
+            f"by {path.folds}-fold blocked cross-validation along {len(path.thresholds)} "
+            f"thresholds ({rule}; the middle of the run {path.plateau[0]:.3g}–"
+            f"{path.plateau[1]:.3g} that keeps the same {terms} terms)."
+        )
+    choice = force.choice_
+    if choice is None:
+        return text
+    rule = "fewest terms within the one-standard-error bound" if choice.rule == "one_se" else ""
+    return text + (
+        f" Support: the {rule or 'least error'} by the same cross-validation among the "
+        f"{len(choice.cv_mse)} "
+        "supports that the threshold path and the bootstrap's fits keep (on a path alone, "
+        "correlated noise can hide the right support; see hmid.models.sindy._select)."
     )
 
 

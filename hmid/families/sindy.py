@@ -27,6 +27,9 @@ Config (``models: [{family: sindy, ...}]``)::
     keep: [x, P]                # terms never thresholded (physics prior; [] lets CV decide)
     threshold: cv               # or a number: RMS contribution / std(F_m) below which terms go
     cv: {folds: 5, points: 30, rule: one_se}
+    support: cv                 # the support: cross-validated (cv.rule) among those the
+                                #   threshold path and the bootstrap keep; or threshold
+                                #   (STLSQ's at the threshold; see hmid.models.sindy._select)
     ridge: 0.0                  # STLSQ ridge, per training row
     ensemble: {models: 50, block_seconds: 0.25, confidence: 0.95}  # confidence: the level
                                 #   of the coefficient intervals, whichever method
@@ -132,6 +135,7 @@ class SINDySpec(FamilySpec):
     keep: tuple[str, ...] = ("x", "P")
     threshold: Literal["cv"] | Annotated[float, Field(ge=0)] = "cv"
     cv: CrossValidation = CrossValidation()
+    support: Literal["cv", "threshold"] = "cv"
     ridge: Annotated[float, Field(ge=0)] = 0.0
     ensemble: Ensemble = Ensemble()
     # autocov: calibrated (benchmarks/bench_calibration_sindy.py); bootstrap: the old percentile
@@ -203,9 +207,9 @@ class SINDySpec(FamilySpec):
         model = SINDyForceModel(
             variables=self.variables, degree=self.degree, max_degree=dict(self.max_degree),
             friction_term=self.friction_terms, v0=self.v0, stick_speed=self.stick_speed,
-            keep=self.keep,
-            threshold=self.threshold, folds=self.cv.folds, path_points=self.cv.points,
-            rule=self.cv.rule, ridge=self.ridge, n_models=self.ensemble.models,
+            keep=self.keep, threshold=self.threshold, folds=self.cv.folds,
+            path_points=self.cv.points, rule=self.cv.rule, support=self.support,
+            ridge=self.ridge, n_models=self.ensemble.models,
             block_seconds=self.ensemble.block_seconds, confidence=self.ensemble.confidence,
             intervals=self.intervals, seed=context.seed + self.seed_offset, name=self.name,
         )  # fmt: skip

@@ -9,7 +9,8 @@ meaning; the equation of motion follows from it and the identified friction.
   in x, v, P with per-variable caps, plus tanh(v/v0) for friction; no duplicate columns), rows
   with |v| < stick_speed left out, threshold by blocked cross-validation on the training rows
   (one-standard-error rule), a blocked-bootstrap ensemble (seeded ``numpy.random.Generator``,
-  NumPy's global state untouched) for each term's inclusion probability, and an interval for
+  NumPy's global state untouched) for each term's inclusion probability, the support chosen by
+  the same cross-validation among those the path and the ensemble keep, and an interval for
   each selected coefficient: the post-selection OLS refit's from the residual's autocovariance
   (conditional on the selected support; or the ensemble's percentile interval on request). All
   least-squares problems run on QR-compressed blocks, so 30k rows fit in about a second.

@@ -13,12 +13,12 @@ chosen threshold, zeros included. Where a resample picks another support, its co
 the shared terms move to absorb the difference, and the interval spans those moves.
 
 Measured by ``benchmarks/bench_calibration_sindy.py`` (100 replications; the rig's muscle force
-A_eff P - k1 x - k3 x³ on 20 s of the simulated rig, ~3000 sliding rows): given the right
-support, ``autocov``'s 95 % intervals cover 0.94-0.99 under white, AR(1) phi 0.5-0.97 and
-moving-average-smoothed noise, 0.96-1.14 times the needed width (OLS's on the true terms); over
-all fits 0.88-0.95, short by the share of fits that select another support (up to 12 % at phi
-0.97, {x², x·P, x²·P} for x³), where no interval conditional on the support can cover. The
-bootstrap's cover 0.93-0.98, at 14-17 times the needed width (1.8 under white noise).
+A_eff P - k1 x - k3 x³ on 20 s of the simulated rig, ~3000 sliding rows): ``autocov``'s 95 %
+intervals cover 0.937-0.977 under white, AR(1) phi 0.5-0.97 and moving-average-smoothed noise,
+0.96-1.15 times the needed width (OLS's on the true terms), the true support chosen in 99-100 %
+of the fits (:mod:`~hmid.models.sindy._select`; where a fit chooses another, no interval
+conditional on the support can cover). The bootstrap's cover 0.93-0.98, at 14-18 times the
+needed width (1.8 under white noise).
 """
 
 from __future__ import annotations
@@ -118,8 +118,8 @@ def describe(
         f"{level}: OLS refit on the selected terms, covariance from the residual's "
         f"autocovariance over {lags}{t}. Conditional on the selected support: they do not count "
         "the chance that other terms should have been selected (the inclusion column answers "
-        "that). Given the right support, measured calibrated for residual correlation times up "
-        f"to {CALIBRATED_TAU:g} rows (benchmarks/bench_calibration_sindy.py; over all fits "
-        "short by the share that select another support); this fit: "
+        "that). Measured calibrated for residual correlation times up to "
+        f"{CALIBRATED_TAU:g} rows (benchmarks/bench_calibration_sindy.py, the support "
+        "cross-validated among those of the path and the bootstrap); this fit: "
         f"{tau_int:.3g} rows, {'within' if within else 'BEYOND'} that range"
     )

@@ -15,9 +15,11 @@ Fitting, on the rows given (sliding rows of the training logs in the pipeline):
    the threshold reads the same way ("drop terms worth less than 1 % of the force's spread");
 3. the threshold is a number, or chosen by blocked cross-validation on these rows
    (:func:`~hmid.models.sindy._sparse.threshold_path`, one-standard-error rule);
-4. pysindy's STLSQ on all rows gives the model (its last step an OLS refit on the selected
-   terms); a blocked bootstrap ensemble at the same threshold gives each term's inclusion
-   probability ("is this term in the model?");
+4. a blocked bootstrap ensemble of pysindy's STLSQ at that threshold gives each term's
+   inclusion probability ("is this term in the model?"); the support is chosen by the same
+   cross-validation among those the path and the ensemble keep
+   (:mod:`~hmid.models.sindy._select`; ``support="threshold"``: STLSQ's own on all rows), and
+   the model is the OLS refit on it (STLSQ's last step);
 5. each selected coefficient gets an interval (``intervals=``, see
    :mod:`~hmid.models.sindy._intervals`): by default the OLS refit's, with the covariance from
    the residual's autocovariance, as the polynomial family's -- **conditional on the selected
@@ -55,6 +57,7 @@ from hmid.models.sindy._intervals import (
     support_intervals,
 )
 from hmid.models.sindy._library import Feature, FeatureLibrary, ForceMap, canonical_name
+from hmid.models.sindy._select import refit, support_choice
 from hmid.models.sindy._sparse import (
     ThresholdPath,
     bagging,
@@ -68,6 +71,10 @@ from hmid.models.sindy._sparse import (
 MIN_ROWS = 50
 #: Fewest blocks for cross-validation and the bootstrap.
 MIN_BLOCKS = 4
+#: How the support is chosen, the default first: cross-validation among the supports of the
+#: threshold path and the bootstrap (:mod:`hmid.models.sindy._select`), or STLSQ's at the
+#: threshold.
+SUPPORT = ("cv", "threshold")
 #: Inclusion probabilities that leave a term in doubt (neither clearly in nor clearly out).
 DOUBT = (0.2, 0.8)
 
@@ -77,14 +84,16 @@ class SINDyForceModel(ForceModel):
 
     ``fit(X, y)`` reads x, v, P and, when present, ``log`` and ``t`` (blocks of
     ``block_seconds`` within each log; without ``t`` the rows form 50 equal blocks in order).
-    ``intervals`` is the method of the coefficients' ``confidence`` intervals: ``"autocov"``
-    (post-selection OLS, conditional on the selected support) or ``"bootstrap"``.
+    ``support`` is how the support is chosen (``"cv"`` or ``"threshold"``, see the module
+    docstring); ``intervals`` is the method of the coefficients' ``confidence`` intervals:
+    ``"autocov"`` (post-selection OLS, conditional on the selected support) or ``"bootstrap"``.
 
     Fitted attributes, in library order: ``coef_`` (0 for terms left out), ``std_err_`` and
     ``ci_`` (n_terms x 2) of the chosen method (NaN for terms left out under ``"autocov"``),
     ``inclusion_`` and ``ensemble_coef_`` (the bootstrap), ``tau_int_`` and ``acf_window_``
     (the selected model's residual correlation), ``df_`` (of the t intervals; None for
-    ``"bootstrap"``), ``threshold_``, ``path_``, ``features_``, ``coefficients_``, ``summary_``.
+    ``"bootstrap"``), ``threshold_``, ``path_``, ``choice_`` (the candidate supports; None for
+    ``support="threshold"``), ``features_``, ``coefficients_``, ``summary_``.
     """
 
     family = "sindy"
@@ -102,6 +111,7 @@ class SINDyForceModel(ForceModel):
         folds: int = 5,
         path_points: int = 30,
         rule: str = "one_se",
+        support: str = "cv",
         ridge: float = 0.0,
         n_models: int = 50,
         block_seconds: float = 0.25,
@@ -114,6 +124,8 @@ class SINDyForceModel(ForceModel):
             raise ConfigError(f"threshold must be 'cv' or a number >= 0, got {threshold!r}")
         if rule not in ("one_se", "min"):
             raise ConfigError(f"rule must be 'one_se' or 'min', got {rule!r}")
+        if support not in SUPPORT:
+            raise ConfigError(f"support must be one of {', '.join(SUPPORT)}, got {support!r}")
         if not (isinstance(folds, int) and folds >= 2):
             raise ConfigError(f"folds must be an integer >= 2, got {folds!r}")
         if not (isinstance(n_models, int) and n_models >= 2):
@@ -147,6 +159,7 @@ class SINDyForceModel(ForceModel):
         self.folds = folds
         self.path_points = path_points
         self.rule = rule
+        self.support = support
         self.ridge = ridge
         self.n_models = n_models
         self.block_seconds = block_seconds
@@ -231,12 +244,19 @@ class SINDyForceModel(ForceModel):
         xi = stlsq(whole, threshold, alpha, keep=keep)
         rng = np.random.default_rng(self.seed)
         ensemble = bagging(stats, threshold, self.n_models, rng, alpha=alpha, keep=keep)
+        choice = None
+        if self.support == "cv":
+            choice = support_choice(stats, min(self.folds, stats.n_blocks), path, xi, ensemble,
+                                    self.rule, alpha)  # fmt: skip
+        if choice is not None:
+            xi = refit(whole, choice.supports[choice.chosen], alpha)
         to_physical = y_scale / rms * np.array([f.factor for f in library.features_])
         self.library_ = library
         self.features_: tuple[Feature, ...] = library.features_
         self.threshold_ = threshold
         self.kept_ = keep
         self.path_: ThresholdPath | None = path
+        self.choice_ = choice  # None: STLSQ's support (or nothing to choose from)
         self.coef_ = xi * to_physical
         self.normalized_coef_ = xi
         self.ensemble_coef_ = ensemble * to_physical

@@ -147,10 +147,17 @@ class ThresholdPath:
     cv_mse: np.ndarray  # mean over folds (normalised target: a fraction of var(F_m))
     cv_se: np.ndarray  # standard error of that mean
     n_terms: np.ndarray  # terms kept by a fit on all training rows
+    supports: np.ndarray  # those terms (points x p, boolean)
     chosen: float  # the threshold used: middle of the run with the rule's support
     plateau: tuple[float, float]  # path thresholds that give the same support
     rule: str
     folds: int
+
+    @property
+    def bound(self) -> float:
+        """The one-standard-error rule's bound on the mean CV error."""
+        best = int(np.argmin(self.cv_mse))
+        return float(self.cv_mse[best] + self.cv_se[best])
 
     def table(self) -> pd.DataFrame:
         return pd.DataFrame(
@@ -212,7 +219,7 @@ def threshold_path(
         high += 1
     middle = float(np.sqrt(thresholds[low] * thresholds[high]))
     return ThresholdPath(
-        thresholds, mse, se, np.array([s.sum() for s in supports]), middle,
+        thresholds, mse, se, np.array([s.sum() for s in supports]), np.array(supports), middle,
         (float(thresholds[low]), float(thresholds[high])), rule, folds,
     )  # fmt: skip
 

@@ -80,6 +80,11 @@ def test_report_extras_give_equation_threshold_and_free_run_figure(fitted, tmp_p
     captions = [c for _, c in extras.tables]
     assert any("Threshold path" in c for c in captions)
     assert any("Free run" in c for c in captions)
+    (supports,) = [t for t, c in extras.tables if c.startswith("Candidate supports")]
+    assert supports["chosen"].sum() == 1 and "supports that the threshold path" in extras.text
+    chosen = supports.loc[supports["chosen"], "terms"].item().split(", ")
+    force = fitted.model.force
+    assert chosen == [f.pretty for f, c in zip(force.features_, force.coef_, strict=True) if c]
 
 
 def test_fitted_model_survives_the_stage_cache(fitted, data):
