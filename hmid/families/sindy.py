@@ -27,9 +27,10 @@ Config (``models: [{family: sindy, ...}]``)::
     keep: [x, P]                # terms never thresholded (physics prior; [] lets CV decide)
     threshold: cv               # or a number: RMS contribution / std(F_m) below which terms go
     cv: {folds: 5, points: 30, rule: one_se}
-    support: cv                 # the support: cross-validated (cv.rule) among those the
-                                #   threshold path and the bootstrap keep; or threshold
-                                #   (STLSQ's at the threshold; see hmid.models.sindy._select)
+    support: cv                 # with threshold: cv, the support is cross-validated
+                                #   (cv.rule) among those the threshold path and the bootstrap
+                                #   keep; or threshold (STLSQ's at the threshold, as a fixed
+                                #   threshold always is; see hmid.models.sindy._select)
     ridge: 0.0                  # STLSQ ridge, per training row
     ensemble: {models: 50, block_seconds: 0.25, confidence: 0.95}  # confidence: the level
                                 #   of the coefficient intervals, whichever method

@@ -84,9 +84,10 @@ class SINDyForceModel(ForceModel):
 
     ``fit(X, y)`` reads x, v, P and, when present, ``log`` and ``t`` (blocks of
     ``block_seconds`` within each log; without ``t`` the rows form 50 equal blocks in order).
-    ``support`` is how the support is chosen (``"cv"`` or ``"threshold"``, see the module
-    docstring); ``intervals`` is the method of the coefficients' ``confidence`` intervals:
-    ``"autocov"`` (post-selection OLS, conditional on the selected support) or ``"bootstrap"``.
+    ``support`` is how a cross-validated threshold's support is chosen (``"cv"`` or
+    ``"threshold"``, see the module docstring; a fixed threshold keeps STLSQ's); ``intervals``
+    is the method of the coefficients' ``confidence`` intervals: ``"autocov"`` (post-selection
+    OLS, conditional on the selected support) or ``"bootstrap"``.
 
     Fitted attributes, in library order: ``coef_`` (0 for terms left out), ``std_err_`` and
     ``ci_`` (n_terms x 2) of the chosen method (NaN for terms left out under ``"autocov"``),
@@ -245,8 +246,8 @@ class SINDyForceModel(ForceModel):
         rng = np.random.default_rng(self.seed)
         ensemble = bagging(stats, threshold, self.n_models, rng, alpha=alpha, keep=keep)
         choice = None
-        if self.support == "cv":
-            choice = support_choice(stats, min(self.folds, stats.n_blocks), path, xi, ensemble,
+        if self.support == "cv" and path is not None:  # a fixed threshold fixes STLSQ's support
+            choice = support_choice(stats, min(self.folds, stats.n_blocks), path, ensemble,
                                     self.rule, alpha)  # fmt: skip
         if choice is not None:
             xi = refit(whole, choice.supports[choice.chosen], alpha)

@@ -121,18 +121,14 @@ def choose_support(
 def support_choice(
     stats: BlockStats,
     folds: int,
-    path: ThresholdPath | None,
-    coef: np.ndarray,
+    path: ThresholdPath,
     ensemble: np.ndarray,
     rule: str = "one_se",
     alpha: float = 0.0,
 ) -> SupportChoice | None:
-    """The rule of the module docstring on a fit's ``path`` (None: a fixed threshold, whose
-    support ``coef`` is the path's one point) and bootstrap ``ensemble``; None if every
-    candidate is empty."""
-    on_path = (coef != 0)[None] if path is None else path.supports
-    supports, origin = candidates(on_path, ensemble)
+    """The rule of the module docstring on a fit's threshold ``path`` and bootstrap
+    ``ensemble``; None if every candidate is empty."""
+    supports, origin = candidates(path.supports, ensemble)
     if not len(supports):
         return None
-    bound = -np.inf if path is None else path.bound
-    return choose_support(stats, folds, supports, origin, rule, alpha, bound)
+    return choose_support(stats, folds, supports, origin, rule, alpha, path.bound)

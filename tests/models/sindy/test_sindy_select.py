@@ -83,6 +83,9 @@ def test_support_threshold_keeps_stlsqs_own_support(truth):
     on_path = path.supports[np.searchsorted(path.thresholds, path.plateau[0])]
     assert model.choice_ is None
     np.testing.assert_array_equal(model.coef_ != 0, on_path)
+    fixed = SINDyForceModel(keep=(), seed=5, n_models=10, threshold=model.threshold_).fit(X, y)
+    assert fixed.choice_ is None  # a fixed threshold fixes STLSQ's support
+    np.testing.assert_array_equal(fixed.coef_, model.coef_)
 
 
 def test_unknown_support_rule_is_named():
