@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint demo-data linear-motor-data bench blind study clean
+.PHONY: demo test lint demo-data linear-motor-data bench calibration blind study clean
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -35,6 +35,14 @@ linear-motor-data: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
+
+## calibration: every family's interval coverage against known truth (issue 15; tens of minutes)
+calibration: $(STAMP)
+	$(BIN)/python benchmarks/bench_calibration_polynomial.py --replications 200
+	$(BIN)/python benchmarks/bench_calibration_sindy.py --replications 100
+	$(BIN)/python benchmarks/bench_calibration_balance.py --replications 200
+	$(BIN)/python benchmarks/bench_calibration_friction.py --replications 300
+	$(BIN)/python benchmarks/bench_sls_calibration.py --posterior exact --datasets 120
 
 ## blind: the full blind suite of the loop (about half an hour on 2 cores)
 blind: $(STAMP)
