@@ -14,6 +14,7 @@ from hmid.friction._estimate import FrictionEstimate, LoadCellCheck, LogFriction
 from hmid.friction._law import check_law
 from hmid.friction._models import FallRig, FrictionModel, correlated_covariance
 from hmid.io.log import Log
+from hmid.models._ar_white import fit_ar_white
 from hmid.signal import Differentiator
 
 #: Fewest samples a sliding segment must keep after trimming.
@@ -79,7 +80,8 @@ def _load_cell_check(F, v, direction, model, confidence, sign) -> LoadCellCheck:
     )  # fmt: skip
 
 
-def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign, force):
+def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign, force,
+             noise=None):  # fmt: skip
     # position: the position channel; sign: how friction enters the force channel ``force``
     if position not in log:
         raise LogError(f"{log.source}: a free-fall log needs the position channel {position!r}")
@@ -111,7 +113,7 @@ def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign,
     t_ref = float(np.mean(t[seg]))
     tau, u = t[seg] - t_ref, direction * x[seg]
     try:
-        fit = model.fit_fall(tau, u, rig)
+        fit = model.fit_fall(tau, u, rig, noise)
     except (RuntimeError, ValueError) as err:
         raise LogError(f"{log.source}: the {model.name} fit of x(t) failed: {err}") from None
     se = np.sqrt(np.diag(fit.cov))
@@ -146,7 +148,7 @@ def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign,
         v_ref=direction * fit.w0,
         load_cell=load_cell,
     )
-    return result, np.asarray(fit.cov), (tau, u, fit.fitted), fit.dof
+    return result, np.asarray(fit.cov), (tau, u, fit.fitted), fit.dof, fit.design
 
 
 def _pooled_dof(covs: list[np.ndarray], dofs: list[float]) -> np.ndarray:
@@ -190,10 +192,11 @@ def identify_friction(
     Per log: velocity from ``differentiator`` on the raw position; the sliding segment is the
     longest run with ``|v| > v_min``, trimmed at stick/slide transitions by the derivative's
     reach; ``model`` is fitted to the position there (see :mod:`hmid.friction._models`), giving
-    the parameters with Student-t intervals. The logs are pooled by inverse-covariance
-    weighting (Student-t intervals on the Welch-Satterthwaite dof of the per-log variances),
-    with Cochran's Q for their agreement. The fall's mass and drive are taken as
-    exact. A force channel, where the log has it, gives an independent cross-check: in a free
+    the parameters with Student-t intervals, their position noise's AR(1) + white model fitted
+    on all the logs at once (one sensor; :func:`~hmid.friction._models.correlated_covariance`).
+    The logs are pooled by inverse-covariance weighting (Student-t intervals on the
+    Welch-Satterthwaite dof of the per-log variances, at most the shared noise model's), with
+    Cochran's Q for their agreement. The fall's mass and drive are taken as exact. A force channel, where the log has it, gives an independent cross-check: in a free
     fall it reads the friction alone, entering with ``friction_sign``.
     """
     if not isinstance(model, FrictionModel):
@@ -210,12 +213,19 @@ def identify_friction(
         raise LogError("friction: no free-fall logs given; add logs with role 'free_fall'")
     settings = (v_min, confidence, position, friction_sign, explained)
     fits = [_fit_log(log, rig, model, differentiator, *settings) for log in logs]
+    # one sensor, one noise process: its AR(1) + white model is fitted on every fall at once
+    # (a 0.3 s fall holds too few correlation times to tell phi 0.97 from 0.9 alone)
+    noise = fit_ar_white([(design, u - fitted) for _, _, (_, u, fitted), _, design in fits])
+    if noise is not None and len(fits) > 1:
+        fits = [_fit_log(log, rig, model, differentiator, *settings, noise) for log in logs]
     names = model.param_names
     thetas = [np.array([r.params[p] for p in names]) for r, *_ in fits]
     mean, cov, q, dof = _pool(thetas, [c for _, c, *_ in fits])
     se = np.sqrt(np.diag(cov))
-    z = stats.t.ppf(0.5 + confidence / 2, _pooled_dof([c for _, c, *_ in fits],
-                                                     [d for *_, d in fits]))  # fmt: skip
+    pooled_dof = _pooled_dof([c for _, c, *_ in fits], [f[3] for f in fits])
+    if noise is not None and len(fits) > 1:  # the falls share their noise model's one scale
+        pooled_dof = np.minimum(pooled_dof, noise.dof)
+    z = stats.t.ppf(0.5 + confidence / 2, pooled_dof)
     q_p = float(stats.chi2.sf(q, dof)) if dof > 0 else float("nan")
     i2 = max(0.0, (q - dof) / q) if dof > 0 and q > 0 else (0.0 if dof > 0 else float("nan"))
     return FrictionEstimate(
@@ -231,5 +241,5 @@ def identify_friction(
         i2=float(i2),
         confidence=confidence,
         rig=rig,
-        law=check_law(model, [f for _, _, f, _ in fits], rig, confidence),
+        law=check_law(model, [f[2] for f in fits], rig, confidence),
     )

@@ -12,10 +12,10 @@ derivatives: residuals are then mostly sensor noise and quantisation; fitting ``
 ``v`` instead would use residuals that the derivative's smoothing window correlates over dozens
 of samples. A position sensor's noise may still be correlated in time (a filtered amplifier), so
 the covariance is the widest of the i.i.d. one, the sandwich with the residual's autocovariance up
-to Sokal's window and the sandwich for AR(1) + white errors fitted through the fit's projection
-(:func:`correlated_covariance`; under AR(1) phi 0.9 position noise in
-``benchmarks/bench_calibration_friction.py`` the plain one covered 0.41 at 95 % nominal, the
-lag window 0.87, all three 0.96).
+to Sokal's window and the sandwich for AR(1) + white errors fitted through the fit's projection,
+on every fall of the sensor at once where there are several (:func:`correlated_covariance`;
+under AR(1) phi 0.9 position noise in ``benchmarks/bench_calibration_friction.py`` the plain one
+covered 0.41 at 95 % nominal, the lag window 0.87, all three 0.96-0.98).
 
 A plug-in model subclasses :class:`FrictionModel` and implements its four methods.
 """
@@ -27,16 +27,19 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from math import factorial
 from types import MappingProxyType
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 import statsmodels.api as sm
 from scipy.optimize import curve_fit
 
+if TYPE_CHECKING:
+    from hmid.models._ar_white import ARWhite
+
 #: The longest residual correlation time (samples, as :func:`correlated_covariance` measures
 #: it) at which benchmarks/bench_calibration_friction.py met the band: the median over the
-#: falls of its AR(1) phi = 0.9 case, 15.7 (phi 0.5: 2.6; phi 0.97, not met: 28).
-CALIBRATED_TAU = 16.0
+#: falls of its AR(1) phi = 0.97 case, 29.5 (phi 0.5: 2.6; phi 0.9: 13.5).
+CALIBRATED_TAU = 29.0
 
 
 @dataclass(frozen=True)
@@ -65,10 +68,15 @@ class FallFit:
     fitted: np.ndarray  # fitted travel at each sample, m
     dof: float  # degrees of freedom of the t intervals
     tau_int: float = float("nan")  # the residual's correlation time, samples
+    design: np.ndarray | None = None  # the fit's Jacobian at the estimate (rows x parameters)
 
 
 def correlated_covariance(
-    jacobian: np.ndarray, resid: np.ndarray, keep: list[int], factor: float = 1.0
+    jacobian: np.ndarray,
+    resid: np.ndarray,
+    keep: list[int],
+    factor: float = 1.0,
+    noise: ARWhite | None = None,
 ) -> tuple[np.ndarray, float, float]:
     """Covariance of the least-squares parameters ``keep`` (times ``factor``) for a residual
     correlated in time, the t intervals' degrees of freedom, and the residual's correlation
@@ -80,8 +88,11 @@ def correlated_covariance(
     (:mod:`hmid.models._intervals`, n / (2 M + 1) df); and the sandwich for AR(1) + white errors
     fitted through the fit's projection (:mod:`hmid.models._ar_white`, n (1 - phi) / (1 + phi)
     df): a fall a few correlation times long holds too few lags for the first, and its
-    residual has lost the errors' slow part to the fit."""
-    from hmid.models._ar_white import ar_white_covariance
+    residual has lost the errors' slow part to the fit. ``noise``: that AR(1) + white model
+    fitted on every fall of the sensor at once (:func:`~hmid.friction.identify_friction`), in
+    place of this fall's own; the df stay this fall's n (1 - phi) / (1 + phi), since phi itself
+    is uncertain (with the df of all the falls' rows, phi 0.97 falls covered 0.90)."""
+    from hmid.models._ar_white import fit_ar_white
     from hmid.models._intervals import autocov_covariance, residual_correlation
 
     n, p = jacobian.shape
@@ -95,12 +106,12 @@ def correlated_covariance(
     cov, wider = _at_least(cov, autocov_covariance(design, gamma[: lags + 1]))
     if wider:
         dof = min(dof, n / (2 * lags + 1))
-    found = ar_white_covariance(design, resid)
+    found = noise if noise is not None else fit_ar_white([(design, np.asarray(resid))])
     if found is not None:
-        cov, wider = _at_least(cov, found[0])
+        cov, wider = _at_least(cov, found.covariance(design))
         if wider:
-            dof = min(dof, n * (1 - found[1]) / (1 + found[1]))
-        tau_int = max(tau_int, found[2])
+            dof = min(dof, n * (1 - found.phi) / (1 + found.phi))
+        tau_int = max(tau_int, found.tau_int)
     cov = cov / np.outer(scale, scale)
     return cov[np.ix_(keep, keep)] * factor**2, float(max(dof, 1)), float(tau_int)
 
@@ -128,8 +139,12 @@ class FrictionModel(abc.ABC):
         """Friction force (N) at velocity ``v`` (m/s); its sign follows ``v``."""
 
     @abc.abstractmethod
-    def fit_fall(self, tau: np.ndarray, u: np.ndarray, rig: FallRig) -> FallFit:
-        """Least-squares fit of the travel ``u`` (m) at times ``tau`` (s, centred)."""
+    def fit_fall(
+        self, tau: np.ndarray, u: np.ndarray, rig: FallRig, noise: ARWhite | None = None
+    ) -> FallFit:
+        """Least-squares fit of the travel ``u`` (m) at times ``tau`` (s, centred); ``noise``:
+        the sensor's AR(1) + white errors, if fitted on all falls
+        (:func:`correlated_covariance`)."""
 
     @abc.abstractmethod
     def travel(
@@ -162,15 +177,15 @@ class Coulomb(FrictionModel):
     def friction(self, v, params):
         return np.sign(np.asarray(v, dtype=float)) * params["Fc"]
 
-    def fit_fall(self, tau, u, rig):
+    def fit_fall(self, tau, u, rig, noise=None):
         design = np.column_stack([np.ones_like(tau), tau, 0.5 * tau**2])
         ols = sm.OLS(u, design).fit()
         mass = _mass(rig)
         Fc = rig.drive - mass * ols.params[2]
-        cov, dof, tau_int = correlated_covariance(design, np.asarray(ols.resid), [2], mass)
+        cov, dof, tau_int = correlated_covariance(design, np.asarray(ols.resid), [2], mass, noise)
         return FallFit(
             {"Fc": float(Fc)}, cov, float(ols.params[0]), float(ols.params[1]),
-            np.asarray(ols.fittedvalues), dof, tau_int,
+            np.asarray(ols.fittedvalues), dof, tau_int, design,
         )  # fmt: skip
 
     def travel(self, tau, u0, w0, params, rig):
@@ -248,16 +263,17 @@ class CoulombViscous(FrictionModel):
 
         return model, jacobian
 
-    def fit_fall(self, tau, u, rig):
+    def fit_fall(self, tau, u, rig, noise=None):
         start = Coulomb().fit_fall(tau, u, rig)
         model, jacobian = self._curve(rig)
         p0 = [start.u0, start.w0, start.params["Fc"], 0.0]
         popt, _ = curve_fit(model, tau, u, p0=p0, jac=jacobian, method="lm", maxfev=2000)
         fitted = model(tau, *popt)
-        cov, dof, tau_int = correlated_covariance(jacobian(tau, *popt), u - fitted, [2, 3])
+        design = jacobian(tau, *popt)
+        cov, dof, tau_int = correlated_covariance(design, u - fitted, [2, 3], noise=noise)
         return FallFit(
             {"Fc": float(popt[2]), "b": float(popt[3])}, cov,
-            float(popt[0]), float(popt[1]), fitted, dof, tau_int,
+            float(popt[0]), float(popt[1]), fitted, dof, tau_int, design,
         )  # fmt: skip
 
     def travel(self, tau, u0, w0, params, rig):
