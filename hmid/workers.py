@@ -94,11 +94,19 @@ def shutdown() -> None:
     while _POOL:
         pool = _POOL.popitem()[1]
         processes = list((getattr(pool, "_processes", None) or {}).values())  # no public handle
+        thread = getattr(pool, "_executor_manager_thread", None)  # shutdown() forgets it
         # futures left uncancelled: the pool's thread marks them broken when it sees the dead
         # workers, and Python 3.11's raises if they were cancelled
         pool.shutdown(wait=False)
         for process in processes:
             process.kill()
+        # the pool's thread then closes its queues, whose semaphores are unlinked and
+        # unregistered from multiprocessing's resource tracker: a program that exits (os._exit)
+        # between the two makes the tracker warn of a "leaked semaphore" it cannot unlink
+        if thread is not None:
+            thread.join(timeout=2.0)
+        for process in processes:
+            process.join(timeout=1.0)
 
 
 @dataclass

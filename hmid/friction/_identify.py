@@ -196,8 +196,9 @@ def identify_friction(
     on all the logs at once (one sensor; :func:`~hmid.friction._models.correlated_covariance`).
     The logs are pooled by inverse-covariance weighting (Student-t intervals on the
     Welch-Satterthwaite dof of the per-log variances, at most the shared noise model's), with
-    Cochran's Q for their agreement. The fall's mass and drive are taken as exact. A force channel, where the log has it, gives an independent cross-check: in a free
-    fall it reads the friction alone, entering with ``friction_sign``.
+    Cochran's Q for their agreement. The fall's mass and drive are taken as exact. A force
+    channel, where the log has it, gives an independent cross-check: in a free fall it reads the
+    friction alone, entering with ``friction_sign``.
     """
     if not isinstance(model, FrictionModel):
         raise ConfigError(f"friction model must be a FrictionModel, got {model!r}")
