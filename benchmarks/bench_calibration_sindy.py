@@ -66,7 +66,8 @@ from threadpoolctl import threadpool_limits
 
 from hmid.models.sindy import SINDyForceModel
 from hmid.models.sindy._intervals import percentile_intervals
-from hmid.models.sindy._model import DOUBT, SUPPORT
+from hmid.models.sindy._model import DOUBT
+from hmid.models.sindy._select import SUPPORT
 from hmid.report.markdown import markdown_table
 
 #: The true terms and coefficients (SI), the rig's muscle without memory.

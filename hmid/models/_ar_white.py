@@ -118,14 +118,3 @@ def fit_ar_white(records: Sequence[tuple[np.ndarray, np.ndarray]]) -> ARWhite | 
         phi = float(brentq(lambda f: scales(f)[1], PHI_LOW, PHI_HIGH, xtol=1e-6))
     s_a, s_w = np.maximum(scales(phi)[0], 0.0)
     return ARWhite(phi, float(s_a), float(s_w), n)
-
-
-def ar_white_covariance(
-    design: np.ndarray, resid: np.ndarray
-) -> tuple[np.ndarray, float, float] | None:
-    """``(covariance of the least-squares coefficients, phi, tau_int)`` for AR(1) + white
-    errors fitted on this record alone (:func:`fit_ar_white`; None where it finds none)."""
-    found = fit_ar_white([(design, np.asarray(resid, dtype=float))])
-    if found is None:
-        return None
-    return found.covariance(design), found.phi, found.tau_int

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from hmid.models._ar_white import _expected, ar_white_covariance
+from hmid.models._ar_white import _expected, fit_ar_white
 from hmid.models._intervals import autocov_covariance, residual_correlation
 
 N = 180  # samples of a free fall's sliding segment at 1 kHz
@@ -49,7 +49,8 @@ def test_short_correlated_records_are_covered_where_the_lag_window_is_not():
         resid_all = errors(rng, 0.9)
         coef = bread @ design.T @ resid_all  # truth 0: the curvature's estimate is its error
         resid = resid_all - design @ coef
-        cov, phi, tau = ar_white_covariance(design, resid)
+        model = fit_ar_white([(design, resid)])
+        cov, phi, tau = model.covariance(design), model.phi, model.tau_int
         phis.append(phi)
         taus.append(tau)
         dof = N * (1 - phi) / (1 + phi)
@@ -79,7 +80,7 @@ def test_a_white_residual_is_left_to_the_other_covariances():
     for _ in range(200):
         resid = rng.normal(size=N)
         resid -= design @ (bread @ design.T @ resid)
-        used += ar_white_covariance(design, resid) is not None
+        used += fit_ar_white([(design, resid)]) is not None
     assert used <= 10  # 2.5 % expected from the one-sided bound
 
 
@@ -88,8 +89,6 @@ def test_records_of_one_sensor_share_one_model_whose_intervals_cover_where_each_
     a record): one record's own model reads phi too low as often as not, and its intervals fall
     short; the model fitted on all three at once (the falls of one sensor) covers. Each
     interval is t on its own record's n (1 - phi) / (1 + phi) degrees of freedom."""
-    from hmid.models._ar_white import fit_ar_white
-
     rng = np.random.default_rng(11)
     design = quadratic()
     bread = np.linalg.pinv(design.T @ design)

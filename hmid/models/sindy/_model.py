@@ -15,11 +15,10 @@ Fitting, on the rows given (sliding rows of the training logs in the pipeline):
    the threshold reads the same way ("drop terms worth less than 1 % of the force's spread");
 3. the threshold is a number, or chosen by blocked cross-validation on these rows
    (:func:`~hmid.models.sindy._sparse.threshold_path`, one-standard-error rule);
-4. a blocked bootstrap ensemble of pysindy's STLSQ at that threshold gives each term's
-   inclusion probability ("is this term in the model?"); the support is chosen by the same
-   cross-validation among those the path and the ensemble keep
-   (:mod:`~hmid.models.sindy._select`; ``support="threshold"``: STLSQ's own on all rows), and
-   the model is the OLS refit on it (STLSQ's last step);
+4. a blocked bootstrap of pysindy's STLSQ at that threshold gives each term's inclusion
+   probability ("is this term in the model?"); the support is chosen by the same CV among those
+   the path and the ensemble keep (:mod:`~hmid.models.sindy._select`), the model is the OLS
+   refit on it (STLSQ's last step);
 5. each selected coefficient gets an interval (``intervals=``, see
    :mod:`~hmid.models.sindy._intervals`): by default the OLS refit's, with the covariance from
    the residual's autocovariance, as the polynomial family's -- **conditional on the selected
@@ -57,7 +56,7 @@ from hmid.models.sindy._intervals import (
     support_intervals,
 )
 from hmid.models.sindy._library import Feature, FeatureLibrary, ForceMap, canonical_name
-from hmid.models.sindy._select import refit, support_choice
+from hmid.models.sindy._select import SUPPORT, refit, support_choice
 from hmid.models.sindy._sparse import (
     ThresholdPath,
     bagging,
@@ -71,10 +70,6 @@ from hmid.models.sindy._sparse import (
 MIN_ROWS = 50
 #: Fewest blocks for cross-validation and the bootstrap.
 MIN_BLOCKS = 4
-#: How the support is chosen, the default first: cross-validation among the supports of the
-#: threshold path and the bootstrap (:mod:`hmid.models.sindy._select`), or STLSQ's at the
-#: threshold.
-SUPPORT = ("cv", "threshold")
 #: Inclusion probabilities that leave a term in doubt (neither clearly in nor clearly out).
 DOUBT = (0.2, 0.8)
 
@@ -245,19 +240,18 @@ class SINDyForceModel(ForceModel):
         xi = stlsq(whole, threshold, alpha, keep=keep)
         rng = np.random.default_rng(self.seed)
         ensemble = bagging(stats, threshold, self.n_models, rng, alpha=alpha, keep=keep)
-        choice = None
-        if self.support == "cv" and path is not None:  # a fixed threshold fixes STLSQ's support
+        choice = None  # a fixed threshold, or support="threshold": STLSQ's support
+        if self.support == "cv" and path is not None:
             choice = support_choice(stats, min(self.folds, stats.n_blocks), path, ensemble,
                                     self.rule, alpha)  # fmt: skip
-        if choice is not None:
-            xi = refit(whole, choice.supports[choice.chosen], alpha)
+            xi = xi if choice is None else refit(whole, choice.supports[choice.chosen], alpha)
         to_physical = y_scale / rms * np.array([f.factor for f in library.features_])
         self.library_ = library
         self.features_: tuple[Feature, ...] = library.features_
         self.threshold_ = threshold
         self.kept_ = keep
         self.path_: ThresholdPath | None = path
-        self.choice_ = choice  # None: STLSQ's support (or nothing to choose from)
+        self.choice_ = choice
         self.coef_ = xi * to_physical
         self.normalized_coef_ = xi
         self.ensemble_coef_ = ensemble * to_physical

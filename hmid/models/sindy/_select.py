@@ -30,6 +30,10 @@ import pandas as pd
 
 from hmid.models.sindy._sparse import BlockStats, ThresholdPath, combine, fold_of_blocks, sse
 
+#: How the support is chosen, the default first: cross-validation among the supports of the
+#: threshold path and the bootstrap (this module), or STLSQ's at the threshold.
+SUPPORT = ("cv", "threshold")
+
 
 @dataclass(frozen=True)
 class SupportChoice:
