@@ -42,6 +42,10 @@ def memory_arms(signals: Signals, channel: str, grid: tuple[float, ...]) -> np.n
     scanned once per (signals, channel) and kept for the last few of them: profiling asks for
     the same arms many times, a sensor effect on another channel does not change them, and a
     delayed channel needs only the few taus near the model's."""
+    parts = signals.cache.get(("sum of", channel))
+    if parts is not None:  # the arms are linear in the channel: the parts' arms, combined
+        signals[channel]  # noted as read, as it is below
+        return sum(c * memory_arms(s, name, grid) for c, s, name in parts)
     key = _arms_key(signals, channel)
     table = _ARMS.get(key)
     if table is None:
@@ -56,6 +60,14 @@ def memory_arms(signals: Signals, channel: str, grid: tuple[float, ...]) -> np.n
         for tau, row in zip(batch, _scan(signals, channel, padded, table), strict=False):
             table[tau] = row
     return np.stack([table[float(tau)] for tau in grid])
+
+
+def declare_sum(signals: Signals, channel: str, parts) -> None:
+    """Declare ``signals[channel]`` to be sum(c * s[name] for c, s, name in ``parts``) on every
+    row, each ``s`` on the same rows and segments: its memory arms are then the parts' arms
+    combined (exact: an arm is linear in its channel), and a part's arms are found once for
+    every combination (a lag undone, x + T dx/dt, for every T)."""
+    signals.cache[("sum of", channel)] = tuple(parts)
 
 
 def _scan(signals: Signals, channel: str, taus: list[float], table: dict) -> np.ndarray:

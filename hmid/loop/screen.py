@@ -1,13 +1,20 @@
 """One candidate fitted jointly with the current model on the training rows, and its test.
 
 Every profiled parameter is searched afresh for each candidate: the model's own (a relaxation
-time) over its whole grid at each of two starts, the candidate's along its whole grid, so no fit
+time) over its whole grid at each of two starts, the candidate's along its whole range, so no fit
 inherits a state that the missing effect corrupted (a relaxation time stuck where it absorbed a
 viscous friction).
+
+The candidate's own grid is scanned coarsely (about :data:`COARSE` values), then walked from the
+best value while the SSE falls and filled in outwards from the edges of its likelihood interval,
+so its minimum and its interval are those of the whole grid wherever the profile has one minimum
+between coarse values (tested against the whole grid). A timing candidate's every value
+transforms the signals and rebuilds every column that reads them: this halves its cost.
 """
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +29,8 @@ from hmid.loop.statistics import NestedTest
 #: then a walk from the best: each candidate re-profiles the model twice, and this is most of
 #: the loop's time
 PROFILE_STEP = 4
+#: about this many values of a candidate's own grid are scanned before the walk and the fill
+COARSE = 8
 
 
 @dataclass(frozen=True)
@@ -83,30 +92,21 @@ def consistent(candidate: Candidate, fitted: StructureFit, signals, confidence) 
 
 
 def screen(current: StructureFit, candidate: Candidate, signals: Signals, confidence) -> Screen:
-    """Profile the candidate's parameter over its grid: the model's parameters fully profiled
-    at the grid's first value, then walked from value to value (following the ridge); at the
-    best value they are profiled over their whole grids again, and the better of the two kept.
-    The test uses the effective sample size of the *augmented* residual (the current residual
-    still holds the effect, whose persistence would inflate tau_int and hide it)."""
+    """Profile the candidate's parameter over its grid (:func:`along`): the model's parameters
+    fully profiled at the grid's first value, then walked from value to value (following the
+    ridge); at the best value they are profiled over their whole grids again, and the better of
+    the two kept. The test uses the effective sample size of the *augmented* residual (the
+    current residual still holds the effect, whose persistence would inflate tau_int and hide
+    it)."""
     grid = candidate.hyper.grid if candidate.hyper is not None else (None,)
     index = len(current.structure.terms)
-    base = current.structure.plus(candidate, grid[0])
-    fits = [profile(base, signals, fixed=(index,), step=PROFILE_STEP)]
-    for g in grid[1:]:
-        trial = fit_structure(fits[-1].structure.at(index, g), signals)
-        for i in trial.structure.hypers:
-            if i != index:
-                trial = descend(trial, i, signals)
-        fits.append(trial)
-    sse = np.array([f.sse for f in fits])
-    # prefer grid values whose fit has physical signs; the final check allows for noise
-    signs = np.array([physical(candidate, f) for f in fits])
-    best = int(np.argmin(np.where(signs, sse, np.inf))) if signs.any() else int(np.argmin(sse))
+    fits = along(current, candidate, signals)
+    best = _best(candidate, fits)
     if best and len(current.structure.hypers):
         fresh = profile(current.structure.plus(candidate, grid[best]), signals, fixed=(index,),
                         step=PROFILE_STEP)  # fmt: skip
         if fresh.sse < fits[best].sse:
-            fits[best], sse[best] = fresh, fresh.sse
+            fits[best] = fresh
     joint = refine(fits[best], signals)
     q = joint.columns.width - current.columns.width + (candidate.hyper is not None)
     p1 = joint.columns.width + len(joint.structure.hypers)
@@ -115,10 +115,72 @@ def screen(current: StructureFit, candidate: Candidate, signals: Signals, confid
     test = NestedTest.of(current.sse, joint.sse, q, p1, n_eff)
     interval = None
     if candidate.hyper is not None:
+        _fill(fits, index, signals, n_eff, confidence)
+        sse = np.array([fits[j].sse if j in fits else np.inf for j in range(len(grid))])
         interval = profile_interval(np.asarray(grid, dtype=float), sse, n_eff, confidence)
     collinear = _rank_deficient(joint)
     ok = not collinear and consistent(candidate, joint, signals, confidence)
     return Screen(candidate, joint, test, interval, ok, n_eff, collinear)
+
+
+def along(current: StructureFit, candidate: Candidate, signals: Signals) -> dict[int, StructureFit]:
+    """The joint fit at grid values of the candidate's parameter (by grid index): every
+    ``len(grid) // COARSE``-th value and the last, each from the previous one's fit, then a walk
+    from the best each way while the SSE falls. The whole grid where it has under 2 COARSE."""
+    grid = candidate.hyper.grid if candidate.hyper is not None else (None,)
+    index = len(current.structure.terms)
+    base = current.structure.plus(candidate, grid[0])
+    fits = {0: profile(base, signals, fixed=(index,), step=PROFILE_STEP)}
+    step = max(1, len(grid) // COARSE)
+    coarse = list(dict.fromkeys((*range(0, len(grid), step), len(grid) - 1)))
+    for before, j in itertools.pairwise(coarse):
+        fits[j] = _moved(fits[before], index, grid[j], signals)
+    best = _best(candidate, fits)
+    for direction in (-1, 1):
+        j = best + direction
+        while 0 <= j < len(grid) and j not in fits:
+            fits[j] = _moved(fits[j - direction], index, grid[j], signals)
+            if fits[j].sse >= fits[j - direction].sse:
+                break
+            j += direction
+    return fits
+
+
+def _moved(start: StructureFit, index: int, value: float, signals: Signals) -> StructureFit:
+    """The joint fit with the candidate at ``value``, the model's parameters walked from
+    ``start``'s (the ridge followed)."""
+    trial = fit_structure(start.structure.at(index, value), signals)
+    for i in trial.structure.hypers:
+        if i != index:
+            trial = descend(trial, i, signals)
+    return trial
+
+
+def _best(candidate: Candidate, fits: dict[int, StructureFit]) -> int:
+    """The grid index of the least SSE, among fits with physical signs if any has them (the
+    final check allows for noise)."""
+    signs = {j: physical(candidate, f) for j, f in fits.items()}
+    pool = [j for j in fits if signs[j]] or list(fits)
+    return min(pool, key=lambda j: (fits[j].sse, j))
+
+
+def _fill(fits: dict, index: int, signals: Signals, n_eff: float, confidence: float) -> None:
+    """Grid values outwards from the likelihood interval's edges, each from its inner
+    neighbour's fit, until each edge meets a value outside the interval or the grid's end."""
+    from scipy import stats
+
+    size = len(fits[0].structure.terms[index].term.hyper.grid)
+    grid = fits[0].structure.terms[index].term.hyper.grid
+    limit = stats.chi2.ppf(confidence, 1)
+    while True:
+        least = min(f.sse for f in fits.values())
+        inside = [j for j, f in fits.items() if n_eff * np.log(f.sse / least) <= limit]
+        edges = ((min(inside), -1), (max(inside), 1))
+        todo = [(j + d, j) for j, d in edges if 0 <= j + d < size and j + d not in fits]
+        if not todo:
+            return
+        for j, start in todo:
+            fits[j] = _moved(fits[start], index, grid[j], signals)
 
 
 def _rank_deficient(fitted: StructureFit) -> bool:

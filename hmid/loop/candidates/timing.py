@@ -16,7 +16,7 @@ from typing import ClassVar
 import numpy as np
 
 from hmid.balance import Signals, raw
-from hmid.balance.operations import lagged
+from hmid.balance.operations import declare_sum, lagged
 from hmid.loop.candidates._base import Candidate, Setting, hyper, stack
 
 DELAYS = tuple(np.round(np.arange(0.0, 0.1001, 0.0025), 4))
@@ -66,10 +66,14 @@ class _Timing(Candidate):
             for name in (c, raw(c)):
                 if name in signals:
                     changed[name] = self._undo(signals, name, value)
-        return signals.with_columns(**changed)
+        return self._declared(signals, signals.with_columns(**changed), value)
 
     def _undo(self, signals: Signals, name: str, value: float) -> np.ndarray:
         raise NotImplementedError
+
+    def _declared(self, signals: Signals, seen: Signals, value: float) -> Signals:
+        """``seen``, with what is known of how its channels follow from ``signals``'."""
+        return seen
 
 
 class Delay(_Timing):
@@ -114,8 +118,30 @@ class Lag(_Timing):
         # the inverse of T y' + y = u is u = y + T y', with y' of the smoothed channel (a raw
         # channel's own derivative would be its noise amplified)
         smooth = name.removeprefix("raw:")
-        slope = np.empty(len(signals))
-        t, y = signals["t"], signals[smooth]
-        for rows in signals.segments():
-            slope[rows] = np.gradient(y[rows], t[rows]) if len(rows) > 1 else 0.0
-        return signals[name] + value * slope
+        return signals[name] + value * self._slopes(signals, smooth)[slope_name(smooth)]
+
+    def _declared(self, signals, seen, value):
+        for c in self._chain:
+            if c in signals:
+                slopes = self._slopes(signals, c)
+                declare_sum(seen, c, ((1.0, signals, c), (value, slopes, slope_name(c))))
+        return seen
+
+    @staticmethod
+    def _slopes(signals: Signals, channel: str) -> Signals:
+        """``signals`` with d(channel)/dt per segment as a column: the same for every time
+        constant, so found once (and the slope's memory arms with it)."""
+
+        def compute() -> Signals:
+            slope = np.empty(len(signals))
+            t, y = signals["t"], signals[channel]
+            for rows in signals.segments():
+                slope[rows] = np.gradient(y[rows], t[rows]) if len(rows) > 1 else 0.0
+            return signals.with_columns(**{slope_name(channel): slope})
+
+        return signals.derived(("slopes", channel), compute)
+
+
+def slope_name(channel: str) -> str:
+    """The column of ``channel``'s slope in :meth:`Lag._slopes`' signals."""
+    return f"d/dt:{channel}"
