@@ -16,9 +16,12 @@ target's own quantity, never the ratio, except for the parity rows, whose target
    compilation cache warm (after one untimed run), median of 3 (target <= 15 s); the stage
    times are the medians of the same runs' manifests. Reference: a process that only imports
    ``hmid.cli`` and ``pipelines.identify`` (start-up).
-3. Loop: the demo runs' ``loop`` stage (manifest) per 40 s of dynamic log (target <= 1 s for
-   7 candidates and one round); candidates and rounds from the loop's result (read back from
-   the stage cache). Reference: the same runs' ``fit`` stage (every family).
+3. Loop: per 40 s of dynamic log, target <= 1 s for 7 candidates and one round. The demo
+   screens its rig's whole library (17 candidates), so the row is read from the loop's own
+   timing of its parts (``LoopResult.costs``, the last timed run, read back from the stage
+   cache): everything but screening, plus 7 candidates at round 1's mean cost per candidate
+   (screens shared with the run's worker, as in any ``hmid run``); the whole stage (median of
+   the runs' manifests) is given beside it. Reference: the same runs' ``fit`` stage.
 4. Parity: the four polynomial variants fitted by ``PolynomialModel`` on the demo's training
    rows against ``statsmodels.api.OLS(y, X).fit()`` + ``conf_int`` of the same (scaled) design,
    both building the design from the channels (the model is given no smoothed ``monomials``,
@@ -146,9 +149,9 @@ def demo_row(walls: dict[str, float], stages: dict[str, float], repeats: int) ->
     )
 
 
-def loop_facts(results: Path) -> tuple[float, int, int]:
-    """Seconds of dynamic log in the demo, and the loop's candidates screened in round 1 and
-    rounds (its result read back from the demo runs' stage cache, not recomputed)."""
+def loop_facts(results: Path) -> tuple[float, tuple]:
+    """Seconds of dynamic log in the demo, and the loop's wall time by part (its result read
+    back from the last demo run's stage cache, not recomputed)."""
     from hmid.experiment import load_experiment
     from pipelines.identify import analyse
 
@@ -159,20 +162,27 @@ def loop_facts(results: Path) -> tuple[float, int, int]:
         for entry in artifacts["load"].values()
         if entry.role == "dynamic"
     )
-    tests = artifacts["loop"].tests
-    candidates = int((tests["round"] == 1).sum()) if len(tests) else 0
-    return seconds, candidates, int(tests["round"].nunique()) if len(tests) else 0
+    return seconds, artifacts["loop"].costs
 
 
-def loop_row(stages: dict[str, float], seconds: float, candidates: int, rounds: int) -> Row:
-    per_40 = stages["loop"] / (seconds / 40.0)
+def loop_row(stages: dict[str, float], seconds: float, costs: tuple) -> Row:
+    """The target counts 7 candidates and one round; the demo screens its rig's whole library.
+    Its cost for 7: the loop's parts other than screening, plus 7 of round 1's candidates at
+    their mean cost (the loop's own timing of its last run), per 40 s of log."""
+    per_40 = 40.0 / seconds
+    screening = [(s, n) for _, s, n in costs if n]
+    first, candidates = screening[0]
+    other = sum(s for _, s, n in costs if not n)
+    seven = (other + 7 * first / candidates) * per_40
     return Row(
         "loop ≤ 1 s per 40 s of log (7 candidates, one round)",
-        f"{per_40:.2f} s per 40 s ({stages['loop']:.1f} s on {seconds:.0f} s of dynamic log; "
-        f"{candidates} candidates screened, {rounds} round(s))",
+        f"{seven:.2f} s per 40 s for 7 candidates ({other:.2f} s besides screening, "
+        f"{first / candidates:.3f} s per candidate, on {seconds:.0f} s of log); the whole stage: "
+        f"{stages['loop'] * per_40:.2f} s per 40 s ({stages['loop']:.1f} s, {candidates} "
+        f"candidates, {len(screening)} round(s))",
         f"fit stage, same runs: {stages['fit']:.1f} s",
         f"{stages['loop'] / stages['fit']:.2f}x the fit stage",
-        per_40 <= 1.0,
+        seven <= 1.0,
     )
 
 

@@ -240,6 +240,15 @@ class Tasks:
         self.workers = 0
 
 
+def draw(tasks: Tasks | None, fn: Callable[..., Any], /, *args: Any) -> None:
+    """``fn(*args)`` queued with ``tasks`` (a report's figures, drawn beside its tables; taken
+    back with their results), or now where there are none."""
+    if tasks is None:
+        fn(*args)
+    else:
+        tasks.submit(fn, *args)
+
+
 def _finished(value: Any) -> Future:
     future: Future = Future()
     future.set_result(value)

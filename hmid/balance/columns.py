@@ -131,7 +131,9 @@ def plan(n: int, parts, rows: np.ndarray, memo: dict | None = None) -> Plan:
             for entry in kept:
                 spanned = memo.get(("spanned", entry[0], key))
                 if spanned is None:
-                    basis = columns.values[rows]
+                    basis = memo.get(("span", key))
+                    if basis is None:
+                        basis = memo[("span", key)] = _orthonormal(columns.values[rows])
                     spanned = memo[("spanned", entry[0], key)] = {
                         j for j in range(entry[1].width)
                         if _spanned(entry[1].values[rows, j], basis)
@@ -157,16 +159,24 @@ def _equal(a: np.ndarray, b: np.ndarray) -> bool:
     return a[0] == b[0] and a[-1] == b[-1] and np.array_equal(a, b)
 
 
+def _orthonormal(basis: np.ndarray) -> np.ndarray:
+    """An orthonormal basis of the span of ``basis``'s columns (singular values above lstsq's
+    default cut-off): found once per refining part, then each column is tested by projection."""
+    u, s, _ = np.linalg.svd(basis, full_matrices=False)
+    if not len(s) or s[0] == 0:
+        return u[:, :0]
+    return u[:, s > np.finfo(float).eps * max(basis.shape) * s[0]]
+
+
 def _spanned(column: np.ndarray, basis: np.ndarray, tol: float = 1e-8) -> bool:
-    """Whether ``basis``'s span holds ``column`` (relative residual below ``tol``): a term that
-    refines another (viscous friction by direction of motion refines one viscous coefficient)
-    takes those columns' place, so its coefficients are the whole physical parameters rather
-    than corrections of a rank-deficient pair."""
+    """Whether the span of ``basis`` (orthonormal columns) holds ``column`` (relative residual
+    below ``tol``): a term that refines another (viscous friction by direction of motion
+    refines one viscous coefficient) takes those columns' place, so its coefficients are the
+    whole physical parameters rather than corrections of a rank-deficient pair."""
     norm = np.linalg.norm(column)
     if norm == 0:
         return False
-    coef = np.linalg.lstsq(basis, column, rcond=None)[0]
-    return bool(np.linalg.norm(column - basis @ coef) <= tol * norm)
+    return bool(np.linalg.norm(column - basis @ (basis.T @ column)) <= tol * norm)
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,7 @@ A new kind is one subclass here (it registers itself by its ``kind``).
 from __future__ import annotations
 
 from collections.abc import Mapping
+from functools import lru_cache
 from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
@@ -246,6 +247,7 @@ class SmoothCoulombTerm(TermSpec):
         )
 
 
+@lru_cache(maxsize=256)  # a term's grid is asked for at every fit of a profile
 def _hyper(setting: float | Grid, name: str, unit: str, edges=(True, True)) -> Hyper | None:
     if isinstance(setting, Grid):
         return Hyper(name, unit, setting.values(), edges, setting.scale == "log")

@@ -14,6 +14,7 @@ import pandas as pd
 from hmid.families.base import Extras, FitData, FittedModel
 from hmid.models.sindy._freerun import EquationOfMotion, FreeRunResult
 from hmid.models.sindy._model import SINDyForceModel
+from hmid.workers import draw
 
 VARIABLES = ("x", "v", "P")
 
@@ -73,7 +74,7 @@ class SINDyResult(FittedModel):
                 terms.append(ConstantTerm(name=name, sign=self.sign))
         return Structure.of(terms)
 
-    def report_extras(self, figures_dir: Path, prefix: str) -> Extras:
+    def report_extras(self, figures_dir: Path, prefix: str, drawing=None) -> Extras:
         force = self.force
         text = [
             "Equation of motion from the rig's declared balance and motion"
@@ -98,7 +99,7 @@ class SINDyResult(FittedModel):
             tables.append((self.free_run.table(), "Free run on held-out blocks"))
             if self.free_run.blocks:
                 path = Path(figures_dir) / f"{prefix}_free_run.png"
-                plot_free_run(self.free_run, path)
+                draw(drawing, plot_free_run, self.free_run, path)
                 figures.append((path, "Free run of the discovered equation of motion on "
                                 "held-out blocks: measured vs simulated x"))  # fmt: skip
         else:

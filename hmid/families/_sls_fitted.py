@@ -193,15 +193,18 @@ class SLSFitted(FittedModel):
         lower, upper = np.quantile(data.slot_sign * noisy, [tail, 1.0 - tail], axis=1)
         return lower, upper
 
-    def report_extras(self, figures_dir: Path, prefix: str) -> Extras:
+    def report_extras(self, figures_dir: Path, prefix: str, drawing=None) -> Extras:
         from hmid.models.sls.diagnostics import corner_plot, trace_plot
+        from hmid.workers import draw
 
         r = self.result
-        corner = corner_plot(r, figures_dir / f"{prefix}_corner.png")
+        corner = figures_dir / f"{prefix}_corner.png"
+        draw(drawing, corner_plot, r, corner)
         if self.method == "exact":
             from hmid.models.sls.diagnostics import grid_plot
 
-            marginal = grid_plot(self.grid, figures_dir / f"{prefix}_grid.png")
+            marginal = figures_dir / f"{prefix}_grid.png"
+            draw(drawing, grid_plot, self.grid, marginal)
             text = (
                 f"Exact posterior, {r.n_steps} independent draws in {r.wall_s:.2f} s: the force "
                 "parameters and sigma integrated out analytically (flat prior on A_eff, F0, k1, "
@@ -217,7 +220,8 @@ class SLSFitted(FittedModel):
                     (corner, "Posterior corner plot (draws)"),
                 ],
             )
-        trace = trace_plot(r, figures_dir / f"{prefix}_trace.png")
+        trace = figures_dir / f"{prefix}_trace.png"
+        draw(drawing, trace_plot, r, trace)
         diag = pd.DataFrame(
             {
                 "parameter": list(r.names),

@@ -94,8 +94,10 @@ class FittedModel(ABC):
         """A predictive band (lower, upper) on ``data``'s rows, for models that have one."""
         return None
 
-    def report_extras(self, figures_dir: Path, prefix: str) -> Extras | None:
-        """Extra text, tables and figures for the report (e.g. MCMC diagnostics)."""
+    def report_extras(self, figures_dir: Path, prefix: str, drawing=None) -> Extras | None:
+        """Extra text, tables and figures for the report (e.g. MCMC diagnostics); figures may
+        be drawn by ``drawing`` (:class:`~hmid.workers.Tasks`, see :func:`~hmid.workers.draw`),
+        whose results the caller takes before it reads them."""
         return None
 
 

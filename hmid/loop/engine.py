@@ -10,7 +10,8 @@ and config give the same result.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -82,6 +83,7 @@ def run_loop(
 
 
 def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -> LoopResult:
+    clock = _Clock()
     candidates = make_candidates(spec.candidate_names(setting), setting)
     held = signals.validation  # the comparison's held-out rows: reported on, never decided on
     margins = [base.structure.margins, *(c.margins for c in candidates)]
@@ -99,7 +101,9 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
     rows, effects, steps = [], [], []
     for round_no in range(1, spec.max_effects + 1):
         signals = with_elastic(signals, current, setting.position)
+        clock.lap("setting up" if round_no == 1 else f"round {round_no - 1}: adding its effect")
         screened = screen_round(current, remaining, signals, spec.confidence)
+        clock.lap(f"round {round_no}: screening {len(remaining)} candidates", len(remaining))
         screened = [s for s in screened if not s.adds_nothing]
         if not screened:
             break
@@ -139,7 +143,24 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
         strongest = structure_scan(current.residual, signals.train, signals)["eta2"].max()
         if strongest < spec.structure_threshold:
             break
-    return finish(spec, signals, base, start, current, effects, pd.DataFrame(rows), held, steps)
+    clock.lap("selection" if not effects else f"round {len(effects)}: adding its effect")
+    result = finish(spec, signals, base, start, current, effects, pd.DataFrame(rows), held, steps)
+    clock.lap("diagnostics and verdict")
+    return replace(result, costs=clock.laps)
+
+
+class _Clock:
+    """Wall seconds of the loop's parts, as they end (reported: what a candidate, a round
+    cost)."""
+
+    def __init__(self) -> None:
+        self.laps: tuple[tuple[str, float, int], ...] = ()
+        self._start = time.perf_counter()
+
+    def lap(self, part: str, candidates: int = 0) -> None:
+        now = time.perf_counter()
+        self.laps += ((part, now - self._start, candidates),)
+        self._start = now
 
 
 def _alternatives(best, screened, oof, table, signals, folds, counts, spec, model) -> tuple:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -96,6 +97,9 @@ def metrics(result: LoopResult) -> dict:
             if result.hint is not None
             else None
         ),
+        "wall_s": [
+            {"part": part, "seconds": seconds, "candidates": n} for part, seconds, n in result.costs
+        ],
     }
 
 
@@ -106,10 +110,15 @@ def loop_section(
     *,
     prefix: str = "loop",
     title: str = "Closing the loop: residual analysis and missing physics",
+    drawing=None,
 ) -> tuple[Section, dict]:
     """The report section; ``write_csv(frame, name)`` stores a table in the run folder; file
-    names start with ``prefix``."""
-    plot_whiteness(result, figures / f"{prefix}_whiteness.png")
+    names start with ``prefix``; ``drawing`` may draw the figures that read only the
+    diagnostics (see :func:`~hmid.workers.draw`)."""
+    from hmid.workers import draw
+
+    light = replace(result, data=None, residual_before=np.empty(0), residual_after=np.empty(0))
+    draw(drawing, plot_whiteness, light, figures / f"{prefix}_whiteness.png")
     plot_structure(result, figures / f"{prefix}_structure.png")
     table, diag = before_after(result), diagnostics_table(result)
     write_csv(table, f"{prefix}_before_after.csv")
@@ -169,6 +178,7 @@ def loop_section(
         f"residual correlation times up to {CALIBRATED_TAU:g} samples by "
         "benchmarks/bench_calibration_balance.py); a profiled parameter's is its profile "
         "likelihood's on n / τ_int, at the grid's resolution."
+        + (f"\n\n{result.cost_text()}" if result.costs else "")
     )
     section = Section(
         title,

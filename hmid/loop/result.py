@@ -69,6 +69,20 @@ class LoopResult:
     residual_after: np.ndarray = field(default_factory=lambda: np.empty(0), repr=False)
     # held-out scores after each added effect in turn (reported, never decided on)
     steps: tuple[tuple[str, Scores], ...] = ()
+    # wall seconds of each part (name, seconds, candidates screened in it): the only numbers
+    # that differ between runs of the same config and data
+    costs: tuple[tuple[str, float, int], ...] = ()
+
+    def cost_text(self) -> str:
+        """The loop's wall time by part, per screened candidate where it screened."""
+        if not self.costs:
+            return ""
+        parts = [
+            f"{part} {seconds:.2f} s" + (f" ({seconds / n:.3f} s each)" if n else "")
+            for part, seconds, n in self.costs
+        ]
+        total = sum(seconds for _, seconds, _ in self.costs)
+        return f"The loop took {total:.1f} s: " + "; ".join(parts) + "."
 
     @property
     def first_effect(self) -> str | None:

@@ -82,8 +82,8 @@ def consistent(candidate: Candidate, fitted: StructureFit, signals, confidence) 
     coefficient whose truth is zero (no drag retracting) is estimated just below it half the
     time, and that is no evidence against the physics."""
     positive = [k for k in candidate.positive if k in fitted.params]
-    if not positive:
-        return True
+    if not positive or candidate.signs_hold({k: fitted.params[k] for k in positive}):
+        return True  # an upper bound is never below its estimate: no interval needed
     # with the profiled parameters' sensitivities: a viscous coefficient trades off against a
     # relaxation time, and its interval must say so
     table = parameters(fitted, signals, confidence)
@@ -102,12 +102,15 @@ def screen(current: StructureFit, candidate: Candidate, signals: Signals, confid
     index = len(current.structure.terms)
     fits = along(current, candidate, signals)
     best = _best(candidate, fits)
+    # the model's parameters are refined where the fit is a profile's (the grid's first value,
+    # or a fresh profile at the best): refining them again would only repeat the search
+    settled = best == 0
     if best and len(current.structure.hypers):
         fresh = profile(current.structure.plus(candidate, grid[best]), signals, fixed=(index,),
                         step=PROFILE_STEP)  # fmt: skip
         if fresh.sse < fits[best].sse:
-            fits[best] = fresh
-    joint = refine(fits[best], signals)
+            fits[best], settled = fresh, True
+    joint = refine(fits[best], signals, fixed=range(index) if settled else ())
     q = joint.columns.width - current.columns.width + (candidate.hyper is not None)
     p1 = joint.columns.width + len(joint.structure.hypers)
     tau_int = residual_tau_int(joint.residual, signals)

@@ -150,7 +150,7 @@ def _rig_section(config, units) -> Section:
                    tables=(Table(pd.DataFrame(terms), "Terms of the balance"),))  # fmt: skip
 
 
-def _model_sections(fitted, figures: Path, tables: Path) -> list[Section]:
+def _model_sections(fitted, figures: Path, tables: Path, drawing) -> list[Section]:
     sections = []
     for model in fitted:
         safe = model.name.replace(":", "_")
@@ -158,7 +158,7 @@ def _model_sections(fitted, figures: Path, tables: Path) -> list[Section]:
         _csv(coefficients, tables / f"coefficients_{safe}.csv")
         text = f"`{model.equation}`" + "".join(f"\n\n- {note}" for note in model.notes)
         extra_tables, extra_figures = [], []
-        extras = model.model.report_extras(figures, prefix=safe)
+        extras = model.model.report_extras(figures, prefix=safe, drawing=drawing)
         if extras is not None:  # e.g. MCMC diagnostics of a Bayesian family
             text += "\n\n" + extras.text if extras.text else ""
             for frame, caption in extras.tables:
@@ -229,8 +229,9 @@ def write_outputs(
         from hmid.loop.report import loop_section
 
         section, metrics_loop = loop_section(
-            artifacts["loop"], figures, lambda frame, name: _csv(frame, tables / name)
-        )
+            artifacts["loop"], figures, lambda frame, name: _csv(frame, tables / name),
+            drawing=drawing,
+        )  # fmt: skip
         loop_sections = (section,)
 
     friction_sections, friction_summary = (), ()
@@ -260,7 +261,7 @@ def write_outputs(
         if estimate.law is not None and estimate.law.rejected:
             friction_summary += (("friction law", estimate.law.message()),)
 
-    coefficient_sections = _model_sections(fitted, figures, tables)
+    coefficient_sections = _model_sections(fitted, figures, tables, drawing)
     flags = list(inventory.flags)
     n_train, n_val = rows.train, rows.validation
     error_kind = f"one-step: {label} predicted from the measured signals at each sample"

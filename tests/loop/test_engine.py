@@ -130,6 +130,19 @@ def test_clean_data_get_no_effect_and_no_claim_of_structure(synthetic):
         assert result.after.rmse == result.before.rmse
 
 
+def test_the_loop_reports_what_each_part_and_candidate_cost(synthetic):
+    data, _ = synthetic(viscous)
+    result = loop_on(data, SPEC)
+    parts = [part for part, _, _ in result.costs]
+    screened = int((result.tests["round"] == 1).sum())
+    assert parts[0] == "setting up" and parts[-1] == "diagnostics and verdict"
+    assert parts[1] == f"round 1: screening {screened} candidates"
+    assert "round 1: adding its effect" in parts  # viscous was added
+    assert all(seconds >= 0 for _, seconds, _ in result.costs)
+    assert [n for _, _, n in result.costs if n] == [screened]  # nothing remained after it
+    assert "s each" in result.cost_text()
+
+
 def test_structure_outside_the_library_is_reported_as_unexplained(synthetic):
     def ripple(frame):  # friction that varies along the bore: no candidate has it
         return -0.6 * np.sign(frame["v"]) * np.sin(2 * np.pi * frame["x"] / 0.004), {}

@@ -266,10 +266,12 @@ def test_a_worker_process_gives_the_same_numbers(workspace, monkeypatch):
     models = [*EXPERIMENT["models"], {"family": "sindy", "free_run": {"enabled": False}},
               {"family": "sls"}]  # fmt: skip
     path = _config(workspace, models=models, loop={"base": "poly:cubic_xvP"})
-    tables = {}
+    tables, figures = {}, {}
     for workers in ("0", "1"):
         monkeypatch.setenv(WORKERS_VARIABLE, workers)
         run_dir, _ = run(path, results=workspace / f"results-{workers}", force=True)
         tables[workers] = {p.name: p.read_bytes() for p in (run_dir / "tables").iterdir()}
+        figures[workers] = sorted(p.name for p in (run_dir / "figures").iterdir())
     assert tables["1"] == tables["0"]
+    assert figures["1"] == figures["0"] and "loop_whiteness.png" in figures["0"]
     assert {"loop_tests.csv", "coefficients_sindy_stlsq.csv"} <= set(tables["0"])

@@ -88,7 +88,8 @@ class Candidate(Term):
 
     def signs_hold(self, upper: dict[str, float]) -> bool:
         """Whether fitted intervals (their ``upper`` bounds, by positive parameter present in
-        the fit) are consistent with the physical signs."""
+        the fit) are consistent with the physical signs. Monotone: what holds for some bounds
+        holds for larger ones (the screen asks it of the estimates first)."""
         return all(u > 0 for u in upper.values())
 
     def special_case_of(self, other: Candidate) -> bool:
