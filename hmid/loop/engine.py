@@ -99,11 +99,13 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
     has_elastic = bool(np.any(signals[ELASTIC])) if ELASTIC in signals else False
     remaining = [c for c in candidates if has_elastic or not c.elastic]
     rows, effects, steps = [], [], []
+    part = "setting up"  # what the clock's next lap timed
     for round_no in range(1, spec.max_effects + 1):
         signals = with_elastic(signals, current, setting.position)
-        clock.lap("setting up" if round_no == 1 else f"round {round_no - 1}: adding its effect")
+        clock.lap(part)
         screened = screen_round(current, remaining, signals, spec.confidence)
         clock.lap(f"round {round_no}: screening {len(remaining)} candidates", len(remaining))
+        part = f"round {round_no}: selection"
         screened = [s for s in screened if not s.adds_nothing]
         if not screened:
             break
@@ -138,12 +140,13 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
                                    spec.confidence, alternatives))  # fmt: skip
         remaining.remove(chosen.candidate)
         current = trial
+        part = f"round {round_no}: selection, adding its effect"
         steps.append((effects[-1].name, current.scores(held)))  # reported, never decided on
         # only the structure scan decides whether to go on; the full diagnostics come at the end
         strongest = structure_scan(current.residual, signals.train, signals)["eta2"].max()
         if strongest < spec.structure_threshold:
             break
-    clock.lap("selection" if not effects else f"round {len(effects)}: adding its effect")
+    clock.lap(part)
     result = finish(spec, signals, base, start, current, effects, pd.DataFrame(rows), held, steps)
     clock.lap("diagnostics and verdict")
     return replace(result, costs=clock.laps)

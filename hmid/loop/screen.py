@@ -10,6 +10,9 @@ best value while the SSE falls and filled in outwards from the edges of its like
 so its minimum and its interval are those of the whole grid wherever the profile has one minimum
 between coarse values (tested against the whole grid). A timing candidate's every value
 transforms the signals and rebuilds every column that reads them: this halves its cost.
+A walk follows one ridge of the joint profile; where the model's and the candidate's parameters
+have several (a lag's T against a relaxation time), the coarse path may end on another ridge
+than the whole grid's path would, as often lower as not.
 """
 
 from __future__ import annotations
@@ -129,7 +132,7 @@ def screen(current: StructureFit, candidate: Candidate, signals: Signals, confid
 def along(current: StructureFit, candidate: Candidate, signals: Signals) -> dict[int, StructureFit]:
     """The joint fit at grid values of the candidate's parameter (by grid index): every
     ``len(grid) // COARSE``-th value and the last, each from the previous one's fit, then a walk
-    from the best each way while the SSE falls. The whole grid where it has under 2 COARSE."""
+    from the best each way while the SSE falls (every value of a grid of under 2 COARSE)."""
     grid = candidate.hyper.grid if candidate.hyper is not None else (None,)
     index = len(current.structure.terms)
     base = current.structure.plus(candidate, grid[0])
@@ -172,8 +175,8 @@ def _fill(fits: dict, index: int, signals: Signals, n_eff: float, confidence: fl
     neighbour's fit, until each edge meets a value outside the interval or the grid's end."""
     from scipy import stats
 
-    size = len(fits[0].structure.terms[index].term.hyper.grid)
     grid = fits[0].structure.terms[index].term.hyper.grid
+    size = len(grid)
     limit = stats.chi2.ppf(confidence, 1)
     while True:
         least = min(f.sse for f in fits.values())

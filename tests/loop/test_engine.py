@@ -137,7 +137,7 @@ def test_the_loop_reports_what_each_part_and_candidate_cost(synthetic):
     screened = int((result.tests["round"] == 1).sum())
     assert parts[0] == "setting up" and parts[-1] == "diagnostics and verdict"
     assert parts[1] == f"round 1: screening {screened} candidates"
-    assert "round 1: adding its effect" in parts  # viscous was added
+    assert parts[2] == "round 1: selection, adding its effect"  # viscous was added
     assert all(seconds >= 0 for _, seconds, _ in result.costs)
     assert [n for _, _, n in result.costs if n] == [screened]  # nothing remained after it
     assert "s each" in result.cost_text()
