@@ -25,7 +25,7 @@ from hmid.loop.confounds import rivals, separating
 from hmid.loop.diagnostics import structure_scan
 from hmid.loop.parallel import screen_round
 from hmid.loop.result import Alternative, LoopResult, finish, make_effect, own_parameters
-from hmid.loop.screen import Screen
+from hmid.loop.screen import PROFILE_STEP, Screen
 from hmid.loop.selection import Folds, bootstrap, change, out_of_fold
 from hmid.loop.statistics import NestedTest, holm
 
@@ -92,7 +92,8 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
     # law, and its level change would otherwise be the cheapest explanation of every one
     refit = level(setting)
     structure = base.structure if refit is None else base.structure.plus(refit)
-    current = start = profile(structure, signals)
+    # every 4th relaxation time, then a walk (as in each screen): the base's profile is smooth
+    current = start = profile(structure, signals, step=PROFILE_STEP)
     folds = Folds.of(signals, spec.folds, spec.block_s)
     counts = bootstrap(spec.draws, folds.blocks, seed)
     signals = with_elastic(signals, current, setting.position)
@@ -101,7 +102,8 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
     rows, effects, steps = [], [], []
     part = "setting up"  # what the clock's next lap timed
     for round_no in range(1, spec.max_effects + 1):
-        signals = with_elastic(signals, current, setting.position)
+        if round_no > 1:  # the model changed: its elastic force with it
+            signals = with_elastic(signals, current, setting.position)
         clock.lap(part)
         screened = screen_round(current, remaining, signals, spec.confidence)
         clock.lap(f"round {round_no}: screening {len(remaining)} candidates", len(remaining))
