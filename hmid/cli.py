@@ -49,14 +49,17 @@ def _simulate(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from hmid.io.units import UNIT_CACHE_VARIABLE
     from hmid.pipeline.compilation import use_compilation_cache
     from hmid.workers import Tasks, allow_workers
 
     if Path(args.results).is_file():  # said before anything is made beside it
         raise NotADirectoryError(20, "Not a directory", str(args.results))
     use_compilation_cache(Path(args.results) / ".jax-cache")  # before a worker starts
+    os.environ.setdefault(UNIT_CACHE_VARIABLE, str(Path(args.results) / ".unit-cache"))
     allow_workers()  # this program's main module is guarded: a spawned worker may import it
-    tasks = Tasks().start()  # the worker's interpreter starts while this one imports
+    # the worker starts on what every run's families need while this process imports the same
+    tasks = Tasks().start(("hmid.families",))
     from pipelines.identify import run, worker_imports
 
     tasks.start(worker_imports(Path(args.config)))

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
 import textwrap
 from pathlib import Path
 
@@ -35,18 +34,18 @@ PANEL_POINTS = 4000
 
 
 def envelope(values: np.ndarray, points: int = PANEL_POINTS) -> np.ndarray:
-    """Sorted row indices that keep the minimum and maximum of ``values`` in each of
-    ``points // 2`` consecutive bins (all rows when there are fewer)."""
+    """Sorted row indices that keep the minimum and maximum of ``values`` in each of at most
+    ``points // 2`` consecutive bins of equal length (all rows when there are fewer)."""
     n = len(values)
     if n <= points:
         return np.arange(n)
-    bins = points // 2
-    edges = np.linspace(0, n, bins + 1).astype(int)
-    out = []
-    for lo, hi in itertools.pairwise(edges):
-        chunk = values[lo:hi]
-        out += [lo + int(np.argmin(chunk)), lo + int(np.argmax(chunk))]
-    return np.unique(out)
+    width = -(-n // (points // 2))
+    bins = -(-n // width)
+    # the last bin is padded with its own last value: an index there never passes the end
+    padded = np.concatenate([values, np.full(bins * width - n, values[-1])]).reshape(bins, width)
+    start = width * np.arange(bins)
+    found = np.concatenate([start + padded.argmin(axis=1), start + padded.argmax(axis=1)])
+    return np.unique(np.minimum(found, n - 1))
 
 
 def plot_model(

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import hashlib
 from collections import OrderedDict
-from functools import cache
 
 import numpy as np
 
@@ -24,17 +23,6 @@ def _arms_key(signals: Signals, channel: str) -> tuple:
         return found.hexdigest()
 
     return (signals.derived(("digest", channel), digest), channel)
-
-
-@cache
-def _compiled_response():
-    """The Maxwell-arm scan, compiled once per shape: eagerly, each call would trace and compile
-    its scan anew (tens of milliseconds, thousands of times while profiling a delay)."""
-    import jax
-
-    from hmid.signal.maxwell import unit_response
-
-    return jax.jit(unit_response)
 
 
 def memory_arms(signals: Signals, channel: str, grid: tuple[float, ...]) -> np.ndarray:
@@ -77,7 +65,9 @@ def _scan(signals: Signals, channel: str, taus: list[float], table: dict) -> np.
     import jax
     import jax.numpy as jnp
 
-    unit_response = _compiled_response()
+    from hmid.signal.maxwell import compiled_response
+
+    unit_response = compiled_response()
     with jax.enable_x64(True):
         arrays = table.get("arrays")
         if arrays is None:

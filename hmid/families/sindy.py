@@ -120,7 +120,7 @@ class SINDySpec(FamilySpec):
     """A SINDy force map and its equation of motion; see the module docstring for the keys."""
 
     family: Literal["sindy"] = "sindy"
-    imports: ClassVar[tuple[str, ...]] = ("hmid.models.sindy",)
+    imports: ClassVar[tuple[str, ...]] = ("hmid.models.sindy", "hmid.models.sindy._stlsq")
     name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$")] = "stlsq"
     variables: Annotated[tuple[Variable, ...], Field(min_length=1)] = ("x", "v", "P")
     degree: Annotated[int, Field(ge=1, le=4)] = 3

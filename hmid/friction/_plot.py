@@ -22,6 +22,8 @@ def plot_free_fall(
 
     fits = {r.source: r for r in estimate.per_log}
     fig = Figure(figsize=(7, 6))
+    # fixed margins: the same two panels for every rig (a tight layout was half the cost)
+    fig.subplots_adjust(left=0.12, right=0.97, bottom=0.09, top=0.94, hspace=0.08)
     ax_x, ax_r = fig.subplots(2, 1, sharex=True, height_ratios=(2, 1))
     for k, log in enumerate(logs):
         if log.source not in fits:
@@ -47,7 +49,6 @@ def plot_free_fall(
     ax_r.axhline(0.0, color="k", lw=0.8)
     ax_r.set_ylabel("residual [mm]")
     ax_r.set_xlabel("t [s]")
-    fig.tight_layout()
     path = Path(path)
     fig.savefig(path)
     return path

@@ -17,7 +17,10 @@ def _figure(**kwargs):
 def plot_whiteness(result: LoopResult, path: Path) -> None:
     """Autocorrelation with the 99 % white-noise bound, cross-correlation with the inputs, and
     the residual spectrum, before and after."""
-    fig = _figure(figsize=(11, 6.5), layout="constrained")
+    fig = _figure(figsize=(11, 6.5))
+    # fixed margins: the panels and their labels are the same for every run, and a constrained
+    # layout was two thirds of the figure's cost
+    fig.subplots_adjust(left=0.07, right=0.985, bottom=0.08, top=0.95, hspace=0.42, wspace=0.3)
     axes = fig.subplots(2, 3)
     for row, (label, d) in enumerate(
         (("before", result.diagnostics_before), ("after", result.diagnostics_after))
@@ -44,7 +47,8 @@ def plot_whiteness(result: LoopResult, path: Path) -> None:
 def plot_structure(result: LoopResult, path: Path) -> None:
     """Residual mean per bin of the signal that explained most of it (before) and the one
     that explains most of what remains (after), per direction of motion."""
-    fig = _figure(figsize=(11, 4), layout="constrained")
+    fig = _figure(figsize=(11, 4))
+    fig.subplots_adjust(left=0.07, right=0.985, bottom=0.13, top=0.91, wspace=0.2)
     axes = fig.subplots(1, 2)
     data = result.data
     values = signals(data)

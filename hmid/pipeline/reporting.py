@@ -215,7 +215,10 @@ def write_outputs(
     if findings:
         _csv(findings_table, tables / "sign_findings.csv")
 
-    # a worker draws these while this process writes the tables and the other figures
+    # a worker draws the figures while this process writes the tables and the rest; the
+    # families' own come first, the dearest among them (a posterior's corner plot), so that a
+    # worker begins them while this process, once done, takes back the cheap ones from the end
+    coefficient_sections = _model_sections(fitted, figures, tables, drawing)
     drawing.submit(plot_scores, comparison.scores, figures / "scores.png", unit)
     model_figures = []
     for model in fitted:
@@ -261,7 +264,6 @@ def write_outputs(
         if estimate.law is not None and estimate.law.rejected:
             friction_summary += (("friction law", estimate.law.message()),)
 
-    coefficient_sections = _model_sections(fitted, figures, tables, drawing)
     flags = list(inventory.flags)
     n_train, n_val = rows.train, rows.validation
     error_kind = f"one-step: {label} predicted from the measured signals at each sample"

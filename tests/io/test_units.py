@@ -1,5 +1,6 @@
 """Unit conversion to SI (hmid.io.units)."""
 
+import os
 import subprocess
 import sys
 
@@ -8,6 +9,7 @@ import pytest
 
 from hmid.errors import UnitError
 from hmid.io import si_unit, to_si, unit_registry
+from hmid.io.units import UNIT_CACHE_VARIABLE
 
 # 1 psi = 1 lbf / in^2 = 4.4482216152605 N / 0.0254^2 m^2 (both exact by definition)
 PSI = 4.4482216152605 / 0.0254**2
@@ -115,3 +117,30 @@ def test_registry_is_shared_and_created_lazily():
     code = "import sys, hmid, hmid.io; print('pint' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_the_registry_kept_in_a_cache_folder_converts_as_a_parsed_one(tmp_path):
+    """``HMID_UNIT_CACHE``: the first process parses pint's definitions and keeps them, the next
+    loads them; a damaged cache file is parsed afresh, never a failure."""
+    code = (
+        "from hmid.io import to_si; import numpy as np; "
+        "print(to_si(np.array([1.0, 2.5]), 'psi', 'P', 'f'), "
+        "to_si(np.array([3.0]), 'ft', 'x', 'f'))"
+    )
+    env = {**os.environ, UNIT_CACHE_VARIABLE: str(tmp_path)}
+
+    def converted(env):
+        run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+        assert run.returncode == 0, run.stderr
+        return run.stdout
+
+    plain = converted({k: v for k, v in env.items() if k != UNIT_CACHE_VARIABLE})
+    assert converted(env) == plain  # parsed, and kept
+    kept = sorted(tmp_path.glob("*.pickle"))
+    assert kept
+    assert converted(env) == plain  # loaded
+    for path in kept:
+        path.write_bytes(path.read_bytes()[:40])  # as if its writer had been killed
+    assert converted(env) == plain  # parsed, and the damaged files removed
+    assert converted(env) == plain  # kept again
+    assert all(path.stat().st_size > 40 for path in kept)

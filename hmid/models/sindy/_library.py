@@ -17,7 +17,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
-import pysindy as ps
 
 from hmid.errors import ConfigError
 from hmid.models.terms import Term, coefficient_unit, polynomial_terms
@@ -97,18 +96,14 @@ class FeatureLibrary:
 
     def _fit_design(self, columns: Mapping[str, np.ndarray]) -> np.ndarray:
         self.scales_ = {v: _scale_of(columns[v]) for v in self.required}
-        poly = ps.PolynomialLibrary(degree=self.degree, include_bias=True)
-        libraries, inputs = [poly], [list(range(len(self.variables)))]
-        if self.friction_term:
-            libraries.append(
-                ps.CustomLibrary(
-                    library_functions=[_tanh],
-                    function_names=[_tanh_name],
-                )
-            )
-            inputs.append([len(self.variables)])  # v / v0 (physical v), appended last
-        self._pysindy = ps.GeneralizedLibrary(libraries, inputs_per_library=inputs)
-        design = self._raw(columns)
+        inputs = self._inputs(columns)
+        poly = self.pysindy_library(inputs[:2]).libraries[0]
+        # pysindy's products, in its order: kept rather than its library, so that a fitted
+        # model transforms (and unpickles) without importing pysindy
+        self._combos = tuple(
+            poly._combinations(len(self.variables), self.degree, True, False, True)
+        )
+        design = self._design(inputs)
         powers = np.asarray(poly.powers_)
         candidates: list[tuple[int, Feature]] = []
         for j, row in enumerate(powers):
@@ -134,20 +129,31 @@ class FeatureLibrary:
         self.dropped_ = tuple(f.name for _, f in dropped)
         return design
 
-    def _raw(self, columns: Mapping[str, np.ndarray]) -> np.ndarray:
+    def pysindy_library(self, inputs: np.ndarray):
+        """pysindy's ``GeneralizedLibrary`` of these terms (polynomials of the scaled variables,
+        then tanh of v / v0), fitted to ``inputs`` (what it learns is their number)."""
+        import pysindy as ps
+
+        libraries = [ps.PolynomialLibrary(degree=self.degree, include_bias=True)]
+        inputs_per_library = [list(range(len(self.variables)))]
+        if self.friction_term:
+            libraries.append(
+                ps.CustomLibrary(library_functions=[_tanh], function_names=[_tanh_name])
+            )
+            inputs_per_library.append([len(self.variables)])  # v / v0 (physical v), appended last
+        library = ps.GeneralizedLibrary(libraries, inputs_per_library=inputs_per_library)
+        return library.fit(inputs)
+
+    def _inputs(self, columns: Mapping[str, np.ndarray]) -> np.ndarray:
         scaled = [columns[v] / self.scales_[v] for v in self.variables]
         if self.friction_term:
             scaled.append(columns["v"] / self.v0)
-        inputs = np.column_stack(scaled)
-        if not hasattr(self._pysindy, "n_output_features_"):
-            self._pysindy.fit(inputs[:2])  # what it learns is the number of inputs
-        # pysindy's products, in its order, without its transform's per-column array wrapping
-        # (two thirds of a design's cost; tested equal to it)
-        combos = tuple(
-            self._pysindy.libraries[0]._combinations(
-                len(self.variables), self.degree, True, False, True
-            )
-        )
+        return np.column_stack(scaled)
+
+    def _design(self, inputs: np.ndarray) -> np.ndarray:
+        """pysindy's transform of ``inputs`` (scaled variables, then v / v0) without its
+        per-column array wrapping (two thirds of a design's cost; tested equal to it)."""
+        combos = self._combos
         # each product is the previous one with one more factor: the same left-to-right
         # multiplications as a product over the combination
         products = {(): np.ones(len(inputs))}
@@ -161,7 +167,7 @@ class FeatureLibrary:
 
     def transform(self, columns: Mapping[str, np.ndarray]) -> np.ndarray:
         """The design (rows x kept features) in the scaled basis; see :attr:`Feature.factor`."""
-        return self._raw(columns)[:, self.columns_]
+        return self._design(self._inputs(columns))[:, self.columns_]
 
     @property
     def names(self) -> tuple[str, ...]:

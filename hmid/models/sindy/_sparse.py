@@ -34,8 +34,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-import pysindy as ps
-import sklearn
 from scipy.linalg import lapack
 
 
@@ -82,35 +80,6 @@ def combine(stats: BlockStats, weights: np.ndarray) -> np.ndarray:
     return out
 
 
-class KeepSTLSQ(ps.STLSQ):
-    """pysindy's STLSQ whose thresholding spares the columns marked in ``keep`` (a boolean mask).
-
-    pysindy's own ``sparse_ind`` option does this in principle, but in pysindy 2.1 it fails in
-    the unbiasing step (an index error) whenever a column is spared.
-    """
-
-    def __init__(self, threshold=0.1, alpha=0.0, max_iter=20, keep=None):
-        # the compressed problem is float64 and checked upstream: sklearn's input checks in
-        # each ridge solve were a fifth of a fit
-        super().__init__(
-            threshold=threshold,
-            alpha=alpha,
-            max_iter=max_iter,
-            unbias=True,
-            ridge_kw={"check_input": False},
-        )
-        self.keep = keep
-
-    def _sparse_coefficients(self, dim, ind_nonzero, coef, threshold):
-        c, big = super()._sparse_coefficients(dim, ind_nonzero, coef, threshold)
-        if self.keep is not None and np.any(self.keep):
-            full = np.zeros(dim)
-            full[ind_nonzero] = coef
-            big = big | self.keep
-            c = np.where(big, full, 0.0)
-        return c, big
-
-
 def stlsq(
     R: np.ndarray,
     threshold: float,
@@ -119,6 +88,10 @@ def stlsq(
     keep: np.ndarray | None = None,
 ) -> np.ndarray:
     """STLSQ (with its unbiasing refit) on the compressed problem ``R``; ``(p,)``."""
+    import sklearn
+
+    from hmid.models.sindy._stlsq import KeepSTLSQ  # pysindy: imported where a fit needs it
+
     p = R.shape[1] - 1
     optimizer = KeepSTLSQ(threshold=threshold, alpha=alpha, max_iter=max_iter, keep=keep)
     # the inputs are checked once upstream: skip sklearn's per-call validation (a third of the

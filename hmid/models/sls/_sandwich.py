@@ -17,14 +17,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 from hmid.models._intervals import autocov_covariance, residual_correlation
 from hmid.models.sls._data import SLSData
 from hmid.models.sls._sampler_result import SamplerResult
-from hmid.signal.maxwell import unit_response
+from hmid.signal.maxwell import responses
 
 _H = 1e-3  # step in ln tau of the Jacobian's central difference
 
@@ -42,9 +40,8 @@ class Adjustment:
 def _jacobian(data: SLSData, beta: np.ndarray, log_tau: float, cubic: bool) -> np.ndarray:
     """d prediction / d (A_eff, F0, k1, [k3], k2, ln tau) on the used rows."""
     x, P = np.asarray(data.x), np.asarray(data.P)
-    with jax.enable_x64(True):
-        taus = jnp.exp(jnp.asarray([log_tau - _H, log_tau, log_tau + _H]))
-        g = np.asarray(unit_response(data.t, data.x, data.start, taus))
+    taus = np.exp([log_tau - _H, log_tau, log_tau + _H])
+    g = responses(data.t, data.x, data.start, taus, batch=4)
     fixed = [P, np.ones_like(P), -x] + ([-np.asarray(data.x3)] if cubic else [])
     d_tau = -beta[-1] * (g[:, 2] - g[:, 0]) / (2 * _H)
     return np.column_stack([*fixed, -g[:, 1], d_tau])[np.asarray(data.use)]

@@ -25,7 +25,6 @@ import math
 import time
 from dataclasses import dataclass
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -34,7 +33,7 @@ from hmid.models.sls._data import SLSData
 from hmid.models.sls._sampler_result import SamplerResult
 from hmid.models.sls._space import PHI_MAX, SLSSpace
 from hmid.models.sls.likelihood import chained
-from hmid.signal.maxwell import unit_response
+from hmid.signal.maxwell import responses
 
 POINTS_PER_SD = 10
 HALF_WIDTH_SD = 8.0
@@ -164,10 +163,8 @@ class _Posterior:
         self.prior_tau = (float(mean[i]), float(sd[i]))
 
     def arms(self, log_tau: np.ndarray) -> np.ndarray:
-        with jax.enable_x64(True):
-            d = self.data
-            g = unit_response(d.t, d.x, d.start, jnp.exp(jnp.asarray(log_tau)))
-            return np.asarray(g)  # (n, T)
+        d = self.data
+        return responses(d.t, d.x, d.start, np.exp(np.asarray(log_tau)))  # (n, T)
 
     def evaluate(self, log_tau: np.ndarray, atanh_phi: np.ndarray):
         """Log density (T, U) and what the draws need at each point."""

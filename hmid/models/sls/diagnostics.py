@@ -106,7 +106,7 @@ def corner_plot(
         )
     finally:
         root.removeFilter(quiet)
-    return _save(fig, path)
+    return _save(fig, path, dpi=100)  # 15 inches square: 1,500 pixels are ample
 
 
 class _Without(logging.Filter):
@@ -165,8 +165,8 @@ def grid_plot(grid, path: str | Path) -> Path:
     return _save(fig, path)
 
 
-def _save(fig: Figure, path: str | Path) -> Path:
+def _save(fig: Figure, path: str | Path, dpi: int = 120) -> Path:
     path = Path(path)
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, format=path.suffix.lstrip(".") or "png", dpi=120)
+        fig.savefig(tmp, format=path.suffix.lstrip(".") or "png", dpi=dpi)
     return path

@@ -50,5 +50,26 @@ def test_the_design_is_pysindys_own_transform(variables, degree, friction):
     scaled = [columns[v] / library.scales_[v] for v in variables]
     if friction:
         scaled.append(columns["v"] / library.v0)
-    theirs = np.asarray(library._pysindy.transform(np.column_stack(scaled)))
+    inputs = np.column_stack(scaled)
+    theirs = np.asarray(library.pysindy_library(inputs).transform(inputs))
     np.testing.assert_array_equal(design, theirs[:, library.columns_])
+
+
+def test_a_fitted_library_transforms_and_unpickles_without_pysindy():
+    """A fitted model crosses processes (a worker's fit, the stage cache): it must not make
+    the process that reads it import pysindy (about a second)."""
+    import pickle
+    import subprocess
+    import sys
+
+    columns = _columns(n=200)
+    library = FeatureLibrary().fit(columns)
+    code = (
+        "import pickle, sys; lib = pickle.loads(sys.stdin.buffer.read()); "
+        "lib.transform({k: lib.scales_[k] * __import__('numpy').ones(3) for k in 'xvP'}); "
+        "print('pysindy' in sys.modules, 'sklearn' in sys.modules)"
+    )
+    found = subprocess.run(
+        [sys.executable, "-c", code], input=pickle.dumps(library), capture_output=True, check=True
+    )
+    assert found.stdout.split() == [b"False", b"False"]
