@@ -67,15 +67,19 @@ def unit_registry() -> pint.UnitRegistry:
         return pint.UnitRegistry()
     from filelock import FileLock
 
-    os.makedirs(folder, exist_ok=True)
-    # pint writes its cache files in place: one process at a time, so none reads a half-written
-    # file (a sweep starts several at once)
-    with FileLock(os.path.join(folder, ".lock")):
-        try:
-            return pint.UnitRegistry(cache_folder=folder)
-        except Exception:  # a damaged cache file (pint's errors vary): the next process rewrites it
-            for kept in Path(folder).glob("*.pickle"):
-                kept.unlink(missing_ok=True)
+    try:
+        os.makedirs(folder, exist_ok=True)
+        lock = FileLock(os.path.join(folder, ".lock"))
+        # pint writes its cache files in place: one process at a time, so none reads a
+        # half-written file (a sweep starts several at once)
+        with lock:
+            try:
+                return pint.UnitRegistry(cache_folder=folder)
+            except Exception:  # a damaged file (pint's errors vary): the next process rewrites it
+                for kept in Path(folder).glob("*.pickle"):
+                    kept.unlink(missing_ok=True)
+    except OSError:  # a folder that cannot be written: a cache only saves time
+        pass
     return pint.UnitRegistry()
 
 

@@ -144,3 +144,13 @@ def test_the_registry_kept_in_a_cache_folder_converts_as_a_parsed_one(tmp_path):
     assert converted(env) == plain  # parsed, and the damaged files removed
     assert converted(env) == plain  # kept again
     assert all(path.stat().st_size > 40 for path in kept)
+
+
+def test_a_unit_cache_folder_that_cannot_be_made_only_costs_time(tmp_path):
+    blocked = tmp_path / "file"
+    blocked.write_text("not a folder")
+    code = "from hmid.io import si_unit; print(si_unit('psi', 'P'))"
+    env = {**os.environ, UNIT_CACHE_VARIABLE: str(blocked / "cache")}
+    run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == "Pa"
