@@ -42,10 +42,13 @@ def memory_arms(signals: Signals, channel: str, grid: tuple[float, ...]) -> np.n
             _ARMS.popitem(last=False)
     _ARMS.move_to_end(key)
     missing = list(dict.fromkeys(float(tau) for tau in grid if float(tau) not in table))
-    for lo in range(0, len(missing), _BATCH):
-        batch = missing[lo : lo + _BATCH]
-        padded = batch + [batch[-1]] * (_BATCH - len(batch))
-        for tau, row in zip(batch, _scan(signals, channel, padded, table), strict=False):
+    if missing:
+        from hmid.signal.maxwell import responses
+
+        # one scan over all rows, restarting at each segment's first (one compiled shape,
+        # however many segments)
+        found = responses(*_arrays(signals, channel, table), missing, batch=_BATCH)
+        for tau, row in zip(missing, np.ascontiguousarray(found.T), strict=True):
             table[tau] = row
     return np.stack([table[float(tau)] for tau in grid])
 
@@ -58,25 +61,20 @@ def declare_sum(signals: Signals, channel: str, parts) -> None:
     signals.cache[("sum of", channel)] = tuple(parts)
 
 
-def _scan(signals: Signals, channel: str, taus: list[float], table: dict) -> np.ndarray:
-    """Rows g_tau(channel), shape (len(taus), n): one scan over all rows, restarting at each
-    segment's first (one compiled shape and one call, however many segments; its arrays
-    converted for JAX once, kept in ``table``)."""
-    import jax
-    import jax.numpy as jnp
+def _arrays(signals: Signals, channel: str, table: dict) -> tuple:
+    """t, the channel and the segments' first rows as float64 JAX arrays, converted once and
+    kept in ``table``."""
+    arrays = table.get("arrays")
+    if arrays is None:
+        import jax
+        import jax.numpy as jnp
 
-    from hmid.signal.maxwell import compiled_response
-
-    unit_response = compiled_response()
-    with jax.enable_x64(True):
-        arrays = table.get("arrays")
-        if arrays is None:
-            start = np.zeros(len(signals), dtype=bool)
-            start[[rows[0] for rows in signals.segments() if len(rows)]] = True
-            arrays = table["arrays"] = tuple(
-                jnp.asarray(a) for a in (signals["t"], signals[channel], start)
-            )
-        return np.asarray(unit_response(*arrays, jnp.asarray(taus))).T
+        start = np.zeros(len(signals), dtype=bool)
+        start[[rows[0] for rows in signals.segments() if len(rows)]] = True
+        with jax.enable_x64(True):
+            arrays = tuple(jnp.asarray(a) for a in (signals["t"], signals[channel], start))
+        table["arrays"] = arrays
+    return arrays
 
 
 def memory_response(signals: Signals, channel: str, tau: float, hyper: Hyper | None) -> np.ndarray:
