@@ -51,13 +51,15 @@ STAGES = (
         ("split", "fit"),
         lambda c: {"loop": c.loop.model_dump(mode="json") if c.loop else None},
     ),
+    Stage("export", s.export, ("split", "fit", "friction"), _section("denoise", "fit")),
+    Stage("freerun", s.freerun, ("split", "export")),
     Stage("rows", s.rows, ("split",), store=False),
 )
 
 
 #: What the report reads: the logs, as loaded and as smoothed, are let go once the signals exist,
 #: and the signals once the last stage has read them.
-REPORTED = ("inventory", "friction", "rows", "fit", "compare", "loop")
+REPORTED = ("inventory", "friction", "rows", "fit", "compare", "loop", "export", "freerun")
 
 
 def analyse(config: ExperimentConfig, stages: tuple[str, ...], cache: Path, *, force=False) -> dict:

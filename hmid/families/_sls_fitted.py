@@ -61,6 +61,19 @@ class SLSFitted(FittedModel):
     def _physical(self, chain: np.ndarray) -> dict[str, np.ndarray]:
         return {k: np.asarray(v) for k, v in self.model.space.to_physical(chain).items()}
 
+    def posterior_draws(self) -> dict[str, np.ndarray]:
+        """The posterior's draws in physical units, shape (chains, draws) each: the exact
+        posterior's independent draws as one chain; an emcee run's walkers after burn-in as
+        chains (thinned as the summary's)."""
+        if self.method == "exact" or self.result.walkers is None:
+            chains = self.result.chain[None]
+        else:
+            burn, thin = int(self.result.burn_in), max(int(self.result.thin), 1)
+            chains = np.swapaxes(self.result.walkers[burn::thin], 0, 1)
+        shape = chains.shape[:2]
+        physical = self._physical(chains.reshape(-1, chains.shape[-1]))
+        return {name: np.asarray(v).reshape(shape) for name, v in physical.items()}
+
     def posterior_table(self) -> pd.DataFrame:
         space = self.model.space
         units = dict(zip(space.physical_names, space.units, strict=True))

@@ -264,6 +264,14 @@ def write_outputs(
         if estimate.law is not None and estimate.law.rejected:
             friction_summary += (("friction law", estimate.law.message()),)
 
+    from hmid.pipeline.models_out import free_run_table, plot_free_runs, write_models
+
+    model_files = write_models(fitted, artifacts.get("export") or {}, run_dir)
+    free_runs = artifacts.get("freerun") or {}
+    free_table = free_run_table(free_runs, unit, config.rig.position)
+    if len(free_table):
+        _csv(free_table, tables / "free_run_scores.csv")
+        drawing.submit(plot_free_runs, free_runs, figures / "free_run.png", label, unit)
     flags = list(inventory.flags)
     n_train, n_val = rows.train, rows.validation
     error_kind = f"one-step: {label} predicted from the measured signals at each sample"
@@ -280,6 +288,8 @@ def write_outputs(
         "friction": None if estimate is None else estimate.to_dict(),
         "rows": {"train": n_train, "validation": n_val, "excluded": rows.excluded},
         "flags": flags,
+        "model_files": model_files,
+        "free_run": free_table.replace({np.nan: None}).to_dict(orient="records"),
     }
     if metrics_loop is not None:
         metrics["loop"] = metrics_loop

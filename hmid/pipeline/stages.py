@@ -256,6 +256,53 @@ def compare(config: ExperimentConfig, split: Split, fit: list[Fitted]) -> Compar
     return Comparison(table.reset_index(drop=True), predictions)
 
 
+def export(config: ExperimentConfig, split: Split, fit: list[Fitted], friction) -> dict:
+    """Every fitted model as a model file's content (:mod:`hmid.portable`), by name; a model
+    that cannot be exported gets its one-line reason instead (the run goes on)."""
+    from hmid.portable.export import model_document
+
+    data = FitData(split.signals, config.rig, "train")
+    settings = {
+        "units": log_units(config),
+        "denoise": config.denoise.model_dump(mode="json"),
+        "fit": config.fit.model_dump(mode="json"),
+        "friction": friction,
+    }
+    out: dict[str, dict | str] = {}
+    for model in fit:
+        posterior = f"{file_stem(model.name)}.posterior.nc" if _draws(model) else None
+        try:
+            out[model.name] = model_document(model, data, posterior=posterior, **settings)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
+            out[model.name] = f"not exported: {err}"
+    return out
+
+
+def freerun(config: ExperimentConfig, split: Split, export: dict) -> dict:
+    """Every exported model run free over the held-out blocks (:mod:`hmid.portable.freerun`),
+    by name; a model that cannot run free says why in one line."""
+    from hmid.portable import Model
+    from hmid.portable.freerun import FreeRun, blocks, simulate_signals
+
+    spans = blocks(split.signals)
+    out = {}
+    for name, document in export.items():
+        if isinstance(document, str):
+            out[name] = FreeRun(name, (), document)
+            continue
+        out[name] = simulate_signals(Model(document), split.signals, spans)
+    return out
+
+
+def file_stem(model_name: str) -> str:
+    """A model's name as a file name (``poly:cubic_xv`` -> ``poly_cubic_xv``)."""
+    return model_name.replace(":", "_")
+
+
+def _draws(model: Fitted):
+    return getattr(model.model, "posterior_draws", None)
+
+
 def loop(config: ExperimentConfig, split: Split, fit: list[Fitted]):
     """The loop on the model ``loop.base`` names (None if the experiment has no loop)."""
     if config.loop is None:

@@ -1,0 +1,82 @@
+"""The run folder's ``models/``: a model file per fitted model and the posterior draws of the
+families that have them (ArviZ netCDF)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from hmid.pipeline.stages import file_stem
+from hmid.portable import write_model_file
+from hmid.portable.posterior import write_posterior
+
+
+def write_models(fitted, exported: dict, run_dir: Path) -> dict[str, str]:
+    """Write ``models/<name>.json`` (and ``<name>.posterior.nc``) for every exported model; what
+    each became, by model name: its file, relative to the run folder, or why there is none."""
+    folder = Path(run_dir) / "models"
+    folder.mkdir(exist_ok=True)
+    out = {}
+    for model in fitted:
+        document = exported.get(model.name)
+        if not isinstance(document, dict):
+            out[model.name] = document or "not exported"
+            continue
+        if document.get("posterior"):
+            draws = model.model.posterior_draws()
+            attrs = {"model": model.name, "family": model.family, "method": model.interval.method
+                     if model.interval else ""}  # fmt: skip
+            write_posterior(draws, folder / document["posterior"], attrs)
+        path = write_model_file(document, folder / f"{file_stem(model.name)}.json")
+        out[model.name] = str(path.relative_to(run_dir))
+    return out
+
+
+def free_run_table(free_runs: dict, unit: str, position: str | None) -> pd.DataFrame:
+    """One row per model: the free run's scores beside what it simulated, or why it did not."""
+    rows = []
+    for name, run in free_runs.items():
+        scores = run.scores() if run.runs else {}
+        first = min((r.diverged_at for r in run.runs if r.diverged_at is not None), default=None)
+        rows.append({
+            "model": name,
+            "free-run blocks": scores.get("free-run blocks", 0),
+            f"fit % ({position})": scores.get("fit % (x)", np.nan),
+            f"rmse {position} [mm]": 1e3 * scores.get("rmse x", np.nan),
+            f"rmse explained [{unit}]": scores.get("rmse explained", np.nan),
+            "diverged": scores.get("diverged", 0),
+            "first divergence [s]": np.nan if first is None else first,
+            "note": run.skipped or "; ".join(sorted({r.reason for r in run.runs if r.reason})),
+        })  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def plot_free_runs(free_runs: dict, path: Path, label: str, unit: str) -> Path:
+    """Measured and simulated position, every model, one panel per held-out block (the three
+    longest)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    runs = [r for r in free_runs.values() if r.runs]
+    if not runs:
+        return path
+    order = sorted(range(len(runs[0].runs)), key=lambda i: -len(runs[0].runs[i].t))[:3]
+    fig, axes = plt.subplots(len(order), 1, figsize=(9, 2.6 * len(order)), squeeze=False)
+    for ax, i in zip(axes[:, 0], order, strict=True):
+        block = runs[0].runs[i]
+        ax.plot(block.t, 1e3 * block.x_measured, color="black", lw=1.4, label="measured")
+        for run in runs:
+            sim = run.runs[i]
+            ax.plot(sim.t, 1e3 * sim.x_simulated, lw=0.9, label=run.model)
+        ax.set_ylabel("position [mm]")
+        ax.set_title(f"{block.log}: free run from {block.t[0]:.2f} s", fontsize=9)
+    axes[-1, 0].set_xlabel("t [s]")
+    axes[0, 0].legend(fontsize=7, ncol=4, loc="upper right")
+    fig.subplots_adjust(left=0.08, right=0.98, top=0.95, bottom=0.08, hspace=0.35)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

@@ -1,0 +1,395 @@
+"""Free run of a loaded model: the position simulated from the measured inputs and the initial
+state alone, as a controller uses the model (MATLAB's ``compare`` in simulation mode).
+
+The rig's balance, with the model's terms in it, is an equation of motion: the explained
+quantity (a force sensor read as ``motion``: mass a + offset; or known parts such as m a + m g;
+or a measured input such as a drive force) equals the sum of the terms. Both sides are affine
+in the acceleration a, which is solved for; the state is x, v and one internal state per memory
+arm (dq/dt = -q/tau + v) and per first-order lag. Inputs (pressure, a drive force) are the
+model's smoothed channels, interpolated linearly between samples.
+
+**Stick-slip.** sign(v) is replaced by tanh(v / v0) (``v0``: the fit's low-speed cut-off
+``fit.v_deadband``, 2 mm/s by default): a regularisation, not an event. Below v0 the block
+creeps where the rig would stick; the error this costs is bounded by the stick band (about
+2 Fc / k in position). An event-driven stick phase would need the static friction level, which
+free falls do not measure.
+
+Integration: diffrax's Tsit5 (5th order) with a PID step-size controller (rtol 1e-6), jit
+compiled once per model and block length, the state saved at the log's samples. A run whose
+state leaves finite numbers, or a box around the measured motion (x range widened by three
+spans each side, |v| up to ten times the largest measured speed), is reported as diverged at
+that time, with the state that left first.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+import pandas as pd
+
+from hmid.balance.kinds import (
+    ChannelTerm,
+    ConstantTerm,
+    CoulombTerm,
+    LagTerm,
+    MemoryTerm,
+    SmoothCoulombTerm,
+)
+
+
+class NotSimulable(ValueError):
+    """The model's balance is not an equation of motion this integrator runs (one line: why)."""
+
+
+@dataclass(frozen=True)
+class Equation:
+    """The balance as an equation of motion: per term, how to evaluate it on the state.
+
+    ``terms``: (kind, data, coefficient) with kind one of "const", "mono" (powers of x, v and
+    inputs), "accel" (coefficient of a), "tanh" (tanh(v / scale)), "memory" (state index),
+    "lag" (state index, input, T), "delay" (input, d), "friction" (free-fall law Fc + b |v|).
+    ``inputs``: the channels read from the log. ``lhs``: the explained quantity the same way."""
+
+    rhs: tuple
+    lhs: tuple
+    inputs: tuple[str, ...]
+    n_memory: int
+    lags: tuple[tuple[str, float], ...]
+    v0: float
+
+
+def equation(model, v0: float | None = None) -> Equation:
+    """The equation of motion of ``model`` (:class:`~hmid.portable.Model`) on its rig."""
+    rig = model.rig
+    x = rig.position
+    if x is None:
+        raise NotSimulable("the rig declares no position: a free run does not apply")
+    fit = model.document.get("fit") or {}
+    v0 = float(v0 if v0 is not None else max(fit.get("v_deadband", 0.002), 1e-4))
+    units = model.document["units"]
+    inputs: list[str] = []
+    memory: list[float] = []
+    lags: list[tuple[str, float]] = []
+    rhs = []
+
+    def channel(name: str) -> str:
+        if name in (x, "v", "a"):
+            return name
+        if name not in inputs:
+            inputs.append(name)
+        return name
+
+    def term_parts(term, coef: float) -> list:
+        s = term.sign * coef
+        if isinstance(term, ConstantTerm):
+            return [("const", None, s)]
+        if isinstance(term, ChannelTerm):
+            powers = term.powers()
+            if "a" in powers:
+                if powers != {"a": 1}:
+                    raise NotSimulable(f"term {term.name} ({term.channel}) is not linear in a")
+                return [("accel", None, s)]
+            return [("mono", tuple((channel(c), p) for c, p in powers.items()), s)]
+        if isinstance(term, CoulombTerm):
+            if term.channel != "v":
+                raise NotSimulable(f"term {term.name}: sign of {term.channel}")
+            return [("tanh", v0, s)]
+        if isinstance(term, SmoothCoulombTerm):
+            return [("tanh", float(term.scale), s)]
+        if isinstance(term, MemoryTerm):
+            if term.channel != x:
+                raise NotSimulable(f"term {term.name}: a memory arm of {term.channel}")
+            memory.append(float(term.tau))
+            return [("memory", (len(memory) - 1, float(term.tau)), s)]
+        if isinstance(term, LagTerm):
+            if term.channel in (x, "v", "a"):
+                raise NotSimulable(f"term {term.name}: a lag of the state {term.channel}")
+            name = channel(term.channel)
+            if term.filter == "delay":
+                return [("delay", (name, float(term.time)), s)]
+            lags.append((name, float(term.time)))
+            return [("lag", len(lags) - 1, s)]
+        raise NotSimulable(f"term {term.name} of kind {term.kind} has no free-run form")
+
+    for term, coef in zip(model.terms, model.coef, strict=True):
+        rhs += term_parts(term, float(coef))
+    for term in rig.known:
+        if getattr(term, "source", None) == "free_fall":
+            law = model.document["known"]["free_fall_friction"]
+            rhs.append(("friction", (float(law["Fc"]), float(law["b"]), v0), float(term.sign)))
+        else:
+            rhs += term_parts(term, rig.term_value(term, units))
+    if rig.motion is not None:
+        lhs = [("accel", None, float(rig.motion.mass)), ("const", None, float(rig.motion.offset))]
+    else:
+        lhs = []
+        for value, part in zip(rig.part_values(units), rig.explained.parts, strict=True):
+            powers = part.powers()
+            if "a" in powers and powers != {"a": 1}:
+                raise NotSimulable(f"the explained part {part.channel} is not linear in a")
+            if powers == {"a": 1}:
+                lhs.append(("accel", None, float(value)))
+            elif not powers:
+                lhs.append(("const", None, float(value)))
+            else:
+                lhs.append(("mono", tuple((channel(c), p) for c, p in powers.items()),
+                            float(value)))  # fmt: skip
+    return Equation(tuple(rhs), tuple(lhs), tuple(inputs), len(memory), tuple(lags), v0)
+
+
+def _value(kind, data, t, x, v, q, lag, u):
+    """A term's regressor on the state (``u(name, t)`` reads an input)."""
+    import jax.numpy as jnp
+
+    if kind == "const":
+        return 1.0
+    if kind == "mono":
+        out = 1.0
+        for name, power in data:
+            out = out * ({"x": x, "v": v}.get(name) if name in ("x", "v") else u(name, t)) ** power
+        return out
+    if kind == "tanh":
+        return jnp.tanh(v / data)
+    if kind == "memory":
+        return q[data[0]]
+    if kind == "lag":
+        return lag[data]
+    if kind == "delay":
+        return u(data[0], t - data[1])
+    if kind == "friction":
+        Fc, b, v0 = data
+        return (Fc + b * jnp.abs(v)) * jnp.tanh(v / v0)
+    raise AssertionError(kind)
+
+
+def _affine(parts, coefs, t, x, v, q, lag, u):
+    """(alpha, beta) of sum(coef * part) = alpha + beta a."""
+    alpha, beta = 0.0, 0.0
+    for (kind, data, _), c in zip(parts, coefs, strict=True):
+        if kind == "accel":
+            beta = beta + c
+        else:
+            alpha = alpha + c * _value(kind, data, t, x, v, q, lag, u)
+    return alpha, beta
+
+
+def _structure(parts: tuple) -> tuple:
+    """The parts without their coefficients: what a compiled solver depends on."""
+    return tuple((kind, data) for kind, data, _ in parts)
+
+
+def _solver(eq: Equation, position: str):
+    """The compiled solver of ``eq``'s structure (coefficients are its arguments)."""
+    return _compiled(_structure(eq.rhs), _structure(eq.lhs), eq.inputs, eq.n_memory,
+                     tuple(name for name, _ in eq.lags), position)  # fmt: skip
+
+
+@lru_cache(maxsize=32)
+def _compiled(rhs, lhs, names, m, lag_names, position):
+    """A jitted function (ts, y0, inputs, cr, cl, taus, lag_times) -> states at ts."""
+    import diffrax
+    import jax
+    import jax.numpy as jnp
+
+    rhs = tuple((k, _rename(d, position), None) for k, d in rhs)
+    lhs = tuple((k, _rename(d, position), None) for k, d in lhs)
+    lag_inputs = tuple(names.index(name) for name in lag_names)
+
+    def field(t, y, args):
+        ts, values, cr, cl, taus, lag_times = args
+
+        def u(name, at):
+            return jnp.interp(at, ts, values[names.index(name)])
+
+        x, v, q, lag = y[0], y[1], y[2 : 2 + m], y[2 + m :]
+        a_r, b_r = _affine(rhs, cr, t, x, v, q, lag, u)
+        a_l, b_l = _affine(lhs, cl, t, x, v, q, lag, u)
+        a = (a_r - a_l) / (b_l - b_r)
+        dq = -q / taus + v
+        dlag = jnp.stack(
+            [(jnp.interp(t, ts, values[i]) - lag[j]) / lag_times[j] for j, i in enumerate(lag_inputs)]
+        ) if lag_inputs else lag  # fmt: skip
+        return jnp.concatenate([jnp.stack([v, a]), dq, dlag])
+
+    def explained(t, y, args):
+        ts, values, cr, cl, taus, lag_times = args
+
+        def u(name, at):
+            return jnp.interp(at, ts, values[names.index(name)])
+
+        dy = field(t, y, args)
+        x, v, q, lag = y[0], y[1], y[2 : 2 + m], y[2 + m :]
+        a_l, b_l = _affine(lhs, cl, t, x, v, q, lag, u)
+        return a_l + b_l * dy[1]
+
+    def run(ts, y0, values, cr, cl, taus, lag_times):
+        args = (ts, values, cr, cl, taus, lag_times)
+        solution = diffrax.diffeqsolve(
+            diffrax.ODETerm(field), diffrax.Tsit5(), ts[0], ts[-1], ts[1] - ts[0], y0, args=args,
+            saveat=diffrax.SaveAt(ts=ts), stepsize_controller=diffrax.PIDController(
+                rtol=1e-6, atol=1e-9), max_steps=64 * ts.shape[0], throw=False,
+        )  # fmt: skip
+        ys = solution.ys
+        force = jax.vmap(lambda t, y: explained(t, y, args))(ts, ys)
+        return ys, force, solution.result == diffrax.RESULTS.successful
+
+    return jax.jit(run)
+
+
+def _rename(data, position: str):
+    """The position channel is called "x" inside the integrator."""
+    if isinstance(data, tuple) and data and isinstance(data[0], tuple):
+        return tuple(("x" if c == position else c, p) for c, p in data)
+    return data
+
+
+@dataclass(frozen=True)
+class BlockRun:
+    """One simulated block: measured and simulated position and explained quantity."""
+
+    log: str
+    t: np.ndarray
+    x_measured: np.ndarray
+    x_simulated: np.ndarray
+    explained_measured: np.ndarray
+    explained_simulated: np.ndarray | None  # None where the explained quantity is an input
+    diverged_at: float | None
+    reason: str = ""
+
+
+def blocks(signals, role: str = "validation") -> list[np.ndarray]:
+    """Row spans to simulate: within each segment, from the first to the last row of ``role``,
+    split where the role's rows stop for longer than a second (another block of the split)."""
+    mask = signals.rows(role)
+    t = signals["t"]
+    out = []
+    for rows in signals.segments():
+        chosen = rows[mask[rows]]
+        if len(chosen) < 10:
+            continue
+        breaks = np.flatnonzero(np.diff(t[chosen]) > 1.0) + 1
+        for part in np.split(chosen, breaks):
+            if len(part) >= 10:
+                out.append(np.arange(part[0], part[-1] + 1))
+    return out
+
+
+@dataclass(frozen=True)
+class FreeRun:
+    """Every simulated block of one model, and what could not be simulated."""
+
+    model: str
+    runs: tuple[BlockRun, ...]
+    skipped: str = ""  # why there is no free run (one line)
+
+    def scores(self) -> dict:
+        """Fit % of x (NRMSE fit, as MATLAB's compare), RMSE of x and of the explained
+        quantity, over the blocks' samples before any divergence; divergences counted."""
+        ok = [r for r in self.runs if r.diverged_at is None]
+        out = {"free-run blocks": len(self.runs), "diverged": len(self.runs) - len(ok)}
+        if not ok:
+            return out | {"fit % (x)": np.nan, "rmse x": np.nan, "rmse explained": np.nan}
+        err = np.concatenate([r.x_simulated - r.x_measured for r in ok])
+        dev = np.concatenate([r.x_measured - r.x_measured.mean() for r in ok])
+        forces = [r for r in ok if r.explained_simulated is not None]
+        rmse_f = np.nan
+        if forces:
+            ferr = np.concatenate([r.explained_simulated - r.explained_measured for r in forces])
+            rmse_f = float(np.sqrt(np.mean(ferr**2)))
+        return out | {
+            "fit % (x)": float(100 * (1 - np.linalg.norm(err) / np.linalg.norm(dev))),
+            "rmse x": float(np.sqrt(np.mean(err**2))),
+            "rmse explained": rmse_f,
+        }
+
+
+def simulate_signals(model, signals, spans, *, v0: float | None = None) -> FreeRun:
+    """Free runs of ``model`` on ``signals`` over each span of rows (see :func:`blocks`), each
+    from the measured state at its first row."""
+    import jax
+    import jax.numpy as jnp
+
+    try:
+        eq = equation(model, v0)
+    except NotSimulable as err:
+        return FreeRun(model.name, (), str(err))
+    rig = model.rig
+    position = rig.position
+    memory_rows = _memory_states(model, signals)
+    run = _solver(eq, position)
+    coef = [float(c) for _, _, c in eq.rhs], [float(c) for _, _, c in eq.lhs]
+    taus = [d[1] for k, d, _ in eq.rhs if k == "memory"]
+    lag_times = [T for _, T in eq.lags]
+    x_all, v_all, t_all = signals[position], signals["v"], signals["t"]
+    known = signals["explained"]
+    out = []
+    with jax.enable_x64(True):
+        for rows in spans:
+            ts = _padded(t_all[rows])
+            values = np.stack([_padded(signals[name][rows]) for name in eq.inputs]) if (
+                eq.inputs) else np.zeros((0, len(ts)))  # fmt: skip
+            y0 = np.concatenate([
+                [x_all[rows[0]], v_all[rows[0]]],
+                [m[rows[0]] for m in memory_rows],
+                [signals[name][rows[0]] for name, _ in eq.lags],
+            ])  # fmt: skip
+            ys, force, ok = run(jnp.asarray(ts), jnp.asarray(y0), jnp.asarray(values),
+                                jnp.asarray(coef[0]), jnp.asarray(coef[1]),
+                                jnp.asarray(taus), jnp.asarray(lag_times))  # fmt: skip
+            ys, force = np.asarray(ys)[: len(rows)], np.asarray(force)[: len(rows)]
+            out.append(_block(rig, signals, rows, ys, force, bool(ok), any(
+                k == "accel" for k, _, _ in eq.lhs), known))  # fmt: skip
+    return FreeRun(model.name, tuple(out))
+
+
+#: Blocks are padded to a multiple of this many samples (the last one repeated, which the
+#: integrator reaches without a step): one compiled program serves blocks of similar length.
+PAD = 2048
+
+
+def _padded(values: np.ndarray) -> np.ndarray:
+    n = len(values)
+    size = -(-n // PAD) * PAD
+    return np.concatenate([values, np.full(size - n, values[-1])])
+
+
+def _memory_states(model, signals) -> list[np.ndarray]:
+    """Each memory arm's state g_tau(x) on every row, from the measured position (the block's
+    initial state: the arm's response to the motion before it)."""
+    from hmid.balance import Structure
+
+    out = []
+    for term in model.terms:
+        if isinstance(term, MemoryTerm):
+            column = Structure.of((term,)).columns(signals).values[:, 0]
+            out.append(column / term.sign)
+    return out
+
+
+def _block(rig, signals, rows, ys, force, ok, force_is_output, known) -> BlockRun:
+    x_meas = signals[rig.position][rows]
+    v_meas = signals["v"][rows]
+    span = np.ptp(x_meas) or 1e-3
+    vmax = max(10 * np.max(np.abs(v_meas)), 1.0)
+    outside = (~np.isfinite(ys).all(axis=1)) | (np.abs(ys[:, 0] - x_meas.mean()) > 3.5 * span) | (
+        np.abs(ys[:, 1]) > vmax)  # fmt: skip
+    t = signals["t"][rows]
+    diverged_at, reason = None, ""
+    if outside.any() or not ok:
+        first = int(np.argmax(outside)) if outside.any() else len(rows) - 1
+        diverged_at = float(t[first])
+        state = "x" if not np.isfinite(ys[first, 0]) or abs(ys[first, 0] - x_meas.mean()) > 3.5 * span else "v"
+        reason = f"{state} left the measured range" if outside.any() else "the solver stopped"
+    log = str(signals.frame["log"].iloc[rows[0]])
+    return BlockRun(log, t, x_meas, ys[:, 0], known[rows], force if force_is_output else None,
+                    diverged_at, reason)  # fmt: skip
+
+
+def simulate(model, log, *, v0: float | None = None) -> FreeRun:
+    """Free run of ``model`` over the whole of ``log`` (its usable span) from its first state."""
+    signals = model.signals(log)
+    usable = np.flatnonzero(signals["usable"])
+    spans = [np.arange(usable[0], usable[-1] + 1)] if len(usable) else []
+    return simulate_signals(model, signals, spans, v0=v0)
