@@ -56,7 +56,7 @@ def _coefficients(fitted: Fitted, data: FitData, terms) -> tuple[dict, dict]:
     gap = values @ coef - predicted
     scale = float(np.sqrt(np.mean(predicted**2))) or 1.0
     agreement = {
-        "rows": int(len(predicted)),
+        "rows": len(predicted),
         "max_abs": float(np.max(np.abs(gap))) if len(gap) else 0.0,
         "relative_rms": float(np.sqrt(np.mean(gap**2)) / scale) if len(gap) else 0.0,
     }

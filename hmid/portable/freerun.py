@@ -27,7 +27,6 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-import pandas as pd
 
 from hmid.balance.kinds import (
     ChannelTerm,
@@ -208,13 +207,14 @@ def _compiled(rhs, lhs, names, m, lag_names, position):
         a_l, b_l = _affine(lhs, cl, t, x, v, q, lag, u)
         a = (a_r - a_l) / (b_l - b_r)
         dq = -q / taus + v
-        dlag = jnp.stack(
-            [(jnp.interp(t, ts, values[i]) - lag[j]) / lag_times[j] for j, i in enumerate(lag_inputs)]
-        ) if lag_inputs else lag  # fmt: skip
+        dlag = lag
+        if lag_inputs:
+            inputs = jnp.stack([jnp.interp(t, ts, values[i]) for i in lag_inputs])
+            dlag = (inputs - lag) / lag_times
         return jnp.concatenate([jnp.stack([v, a]), dq, dlag])
 
     def explained(t, y, args):
-        ts, values, cr, cl, taus, lag_times = args
+        ts, values, _, cl, _, _ = args
 
         def u(name, at):
             return jnp.interp(at, ts, values[names.index(name)])
@@ -380,7 +380,8 @@ def _block(rig, signals, rows, ys, force, ok, force_is_output, known) -> BlockRu
     if outside.any() or not ok:
         first = int(np.argmax(outside)) if outside.any() else len(rows) - 1
         diverged_at = float(t[first])
-        state = "x" if not np.isfinite(ys[first, 0]) or abs(ys[first, 0] - x_meas.mean()) > 3.5 * span else "v"
+        x_out = not np.isfinite(ys[first, 0]) or abs(ys[first, 0] - x_meas.mean()) > 3.5 * span
+        state = "x" if x_out else "v"
         reason = f"{state} left the measured range" if outside.any() else "the solver stopped"
     log = str(signals.frame["log"].iloc[rows[0]])
     return BlockRun(log, t, x_meas, ys[:, 0], known[rows], force if force_is_output else None,

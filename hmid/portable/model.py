@@ -47,7 +47,8 @@ class Model:
 
     @cached_property
     def terms(self) -> tuple:
-        return tuple(make_term(t, f"{self.name}: terms.{i}") for i, t in enumerate(self.document["terms"]))
+        terms = self.document["terms"]
+        return tuple(make_term(t, f"{self.name}: terms.{i}") for i, t in enumerate(terms))
 
     @property
     def coef(self) -> np.ndarray:
