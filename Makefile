@@ -52,7 +52,7 @@ blind: $(STAMP)
 study: $(STAMP)
 	@if [ -d ../shared/data/pneumatic-friction ]; then \
 	  $(BIN)/hmid sweep configs/sweeps/pneumatic-seals.yaml; \
-	else echo "study skipped: ../shared/data/pneumatic-friction is absent (see README, Real data)"; fi
+	else echo "study skipped: ../shared/data/pneumatic-friction is absent (see docs/logs.md, Real data)"; fi
 
 clean:
 	rm -rf $(VENV)
