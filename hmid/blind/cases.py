@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from hmid.blind.config import BlindSuite
+from hmid.loop.result import Verdict
 
 CLEAN = "clean"
 
@@ -104,7 +105,7 @@ def outcome(case: Case, result) -> dict[str, Any]:
         "indistinguishable": len(named) > 1,
         "confidently wrong": len(named) == 1 and named[0] not in expect,
         "added": " + ".join(added),
-        "verdict": result.verdict,
+        "verdict": result.verdict.value,
         "rmse before [N]": result.before.rmse,
         "rmse after [N]": result.after.rmse,
     }
@@ -124,7 +125,7 @@ def outcome(case: Case, result) -> dict[str, Any]:
     if case.effect == CLEAN:
         row["correct"] = not added
     elif case.expect is None:
-        row["correct"] = not added and result.verdict == "unexplained structure"
+        row["correct"] = not added and result.verdict is Verdict.PATTERN_REMAINS
     else:
         row["correct"] = bool(expect & set(named))
     return row

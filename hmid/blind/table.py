@@ -6,6 +6,10 @@ import pandas as pd
 
 from hmid.blind.cases import CLEAN
 from hmid.blind.config import BlindSuite
+from hmid.loop.result import Verdict
+
+#: The outcomes' verdict column holds each verdict's value (its report wording).
+REMAINS = Verdict.PATTERN_REMAINS.value
 
 
 def suite_table(outcomes: pd.DataFrame) -> pd.DataFrame:
@@ -29,7 +33,7 @@ def suite_table(outcomes: pd.DataFrame) -> pd.DataFrame:
                 ),
                 "confidently wrong": group["confidently wrong"].mean(),
                 "any effect added": added.mean(),
-                "'unexplained structure'": (group["verdict"] == "unexplained structure").mean(),
+                f"'{REMAINS}'": (group["verdict"] == REMAINS).mean(),
                 "correct": group["correct"].mean(),
                 "RMSE before [N]": group["rmse before [N]"].median(),
                 "RMSE after [N]": group["rmse after [N]"].median(),

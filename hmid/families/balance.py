@@ -33,7 +33,15 @@ from hmid.balance import (
 )
 from hmid.balance.kinds import ModelSlot
 from hmid.balance.statistics import CALIBRATED_TAU
-from hmid.families.base import FamilySpec, FitContext, FitData, Fitted, FittedModel
+from hmid.families.base import (
+    STATISTICS,
+    FamilySpec,
+    FitContext,
+    FitData,
+    FitSummary,
+    Fitted,
+    FittedModel,
+)
 from hmid.intervals import IntervalNote
 
 
@@ -104,9 +112,12 @@ class BalanceSpec(FamilySpec):
         rows = signals.train
         n_params = fitted.columns.width + len(fitted.structure.hypers)
         stats = fit_statistics(signals.target[rows], fitted.prediction[rows], n_params)
-        summary = {"family": self.family, "name": self.name, "n_obs": int(rows.sum()),
-                   "n_params": n_params, "tau_int": tau_int, "n_eff": rows.sum() / tau_int,
-                   "condition_number": None, **stats}  # fmt: skip
+        summary = FitSummary(
+            family=self.family, name=self.name, n_obs=int(rows.sum()), n_params=n_params,
+            tau_int=tau_int, n_eff=rows.sum() / tau_int, condition_number=None, **stats,
+            record=("family", "name", "n_obs", "n_params", "tau_int", "n_eff",
+                    "condition_number", *STATISTICS),
+        )  # fmt: skip
         level = f"{100 * self.confidence:g}%"
         coefficients = table.rename(
             columns={"lower": f"ci_low ({level})", "upper": f"ci_high ({level})"}

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -108,6 +108,72 @@ class Extras:
     figures: list
 
 
+#: Goodness of fit on the training rows, as :func:`hmid.models.base.fit_statistics` computes it.
+STATISTICS = ("r2", "r2_adj", "rmse", "aic", "bic")
+#: metrics.json's keys of a fit, in order, as the families that fit a model's design write them
+#: (a family may state its own :attr:`FitSummary.record`).
+MODEL_RECORD = ("family", "name", "n_obs", "n_params", *STATISTICS, "condition_number",
+                "condition_number_unscaled", "warnings")  # fmt: skip
+
+
+@dataclass(frozen=True)
+class FitExtras:
+    """A family's own statistics of a fit (a subclass per family), after the common ones in
+    metrics.json."""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+@dataclass(frozen=True)
+class FitSummary:
+    """How one fitted model fits its training rows, comparable across families (metrics.json's
+    ``fit`` entries; the comparison table reads its attributes).
+
+    ``r2`` … ``bic`` as :func:`hmid.models.base.fit_statistics` defines them; ``condition_number``
+    is that of the design fitted (after any scaling; None without a linear design),
+    ``condition_number_unscaled`` in physical units; ``tau_int`` the residual's integrated
+    autocorrelation time [samples] and ``n_eff`` = ``n_obs`` / ``tau_int`` where a family
+    states them; ``extras`` the family's own. ``record`` names the fields metrics.json writes,
+    in order (each family's keys as it first wrote them, so that metrics stay comparable
+    across versions)."""
+
+    family: str
+    name: str
+    n_obs: int
+    n_params: int
+    r2: float
+    r2_adj: float
+    rmse: float
+    aic: float
+    bic: float
+    condition_number: float | None = None
+    condition_number_unscaled: float | None = None
+    warnings: tuple[str, ...] = ()
+    tau_int: float | None = None
+    n_eff: float | None = None
+    extras: FitExtras | None = None
+    record: tuple[str, ...] = field(default=MODEL_RECORD, repr=False)
+
+    def __post_init__(self) -> None:
+        known = {f.name for f in fields(self)} - {"extras", "record"}
+        unknown = [k for k in self.record if k not in known]
+        if unknown:
+            raise ValueError(f"FitSummary.record: {unknown} are no fields; it has {sorted(known)}")
+
+    @classmethod
+    def of_model(cls, summary, **more) -> FitSummary:
+        """From a model's ``summary_`` (:class:`hmid.models.base.FitSummary`), with ``more``
+        fields (``extras``, ...)."""
+        common = {f.name: getattr(summary, f.name) for f in fields(summary)}
+        return cls(**common | more)
+
+    def to_dict(self) -> dict[str, Any]:
+        """metrics.json's entry: the ``record`` fields in order, then the family's extras."""
+        out = {k: list(self.warnings) if k == "warnings" else getattr(self, k) for k in self.record}
+        return out | (self.extras.to_dict() if self.extras is not None else {})
+
+
 @dataclass(frozen=True)
 class Fitted:
     """One fitted model variant, ready to predict and to be reported."""
@@ -116,7 +182,7 @@ class Fitted:
     family: str
     model: FittedModel
     kind: str  # "one-step": the explained quantity from measured signals at each sample
-    fit_summary: Mapping[str, Any]
+    fit_summary: FitSummary
     coefficients: pd.DataFrame  # value, std. error, CI, unit per parameter
     equation: str
     notes: tuple[str, ...] = field(default_factory=tuple)

@@ -15,7 +15,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from hmid.balance import RigSection, Structure
 from hmid.balance.kinds import ChannelTerm, ConstantTerm, channel_product
 from hmid.balance.signals import raw
-from hmid.families.base import FamilySpec, FitContext, FitData, Fitted, FittedModel
+from hmid.families.base import FamilySpec, FitContext, FitData, FitSummary, Fitted, FittedModel
 
 THESIS_VARIANTS = ("quadratic_xv", "cubic_xv", "quadratic_xvP", "cubic_xvP")
 Variable = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$")]
@@ -95,7 +95,7 @@ class PolynomialSpec(FamilySpec):
                     family=self.family,
                     model=FittedPolynomial(model, variables, data.slot_sign),
                     kind="one-step",
-                    fit_summary=model.summary_.to_dict(),
+                    fit_summary=FitSummary.of_model(model.summary_),
                     coefficients=model.coefficient_table(),
                     equation=model.equation(),
                     notes=(model.interval_method(), *model.summary_.warnings),

@@ -44,6 +44,7 @@ Config (``models: [{family: sindy, ...}]``)::
 
 from __future__ import annotations
 
+from dataclasses import dataclass, fields
 from typing import Annotated, ClassVar, Literal
 
 import numpy as np
@@ -51,7 +52,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 
 from hmid.balance import RigSection
 from hmid.errors import ConfigError
-from hmid.families.base import FamilySpec, FitContext, FitData, Fitted
+from hmid.families.base import FamilySpec, FitContext, FitData, FitExtras, FitSummary, Fitted
 
 Variable = Literal["x", "v", "P"]
 
@@ -239,17 +240,16 @@ class SINDySpec(FamilySpec):
                     if b.status != "ok"
                 )
         notes.append(interval_note(model))
-        summary = model.summary_.to_dict() | {
-            "threshold": model.threshold_,
-            "selected_terms": list(model.selected),
-            "stuck_rows_left_out": model.n_stuck_,
-            "ensemble_models": model.n_models,
-            "intervals": model.intervals,
-            "residual_tau_int_rows": model.tau_int_,
-        }
-        if run is not None:
-            summary |= {k: (None if isinstance(v, float) and not np.isfinite(v) else v)
-                        for k, v in run.summary().items()}  # fmt: skip
+        extras = SINDyExtras(
+            threshold=model.threshold_,
+            selected_terms=tuple(model.selected),
+            stuck_rows_left_out=model.n_stuck_,
+            ensemble_models=model.n_models,
+            intervals=model.intervals,
+            residual_tau_int_rows=model.tau_int_,
+            free_run=None if run is None else FreeRunSummary.of(run.summary()),
+        )
+        summary = FitSummary.of_model(model.summary_, extras=extras)
         result = SINDyResult(model, eom, run, velocity, self.velocity.label(), data.slot_sign,
                              skipped)  # fmt: skip
         return [
@@ -265,3 +265,49 @@ class SINDySpec(FamilySpec):
                 interval=model.interval_note(),
             )
         ]
+
+
+@dataclass(frozen=True)
+class FreeRunSummary:
+    """The free run on the held-out blocks (:meth:`hmid.models.sindy.FreeRun.summary`): blocks
+    run, diverged and stopped, the x RMSE [m] of those that ran to the end (None if none did),
+    the RK4 steps per sample and the friction's smoothing speed [m/s]."""
+
+    blocks: int
+    diverged: int
+    stopped: int
+    rmse_x_m: float | None
+    substeps: int
+    v0: float | None
+
+    @classmethod
+    def of(cls, summary: dict) -> FreeRunSummary:
+        """From the run's ``free_run_*`` record; a non-finite number is None (JSON has none)."""
+        return cls(**{k.removeprefix("free_run_"): _finite(v) for k, v in summary.items()})
+
+    def to_dict(self) -> dict:
+        return {f"free_run_{f.name}": getattr(self, f.name) for f in fields(self)}
+
+
+@dataclass(frozen=True)
+class SINDyExtras(FitExtras):
+    """SINDy's own statistics of a fit: the threshold chosen, the terms selected, the stuck rows
+    left out, the ensemble's size, the intervals' method, the residual's τ_int [rows] and the
+    free run (None where it did not run)."""
+
+    threshold: float
+    selected_terms: tuple[str, ...]
+    stuck_rows_left_out: int
+    ensemble_models: int
+    intervals: str
+    residual_tau_int_rows: float
+    free_run: FreeRunSummary | None = None
+
+    def to_dict(self) -> dict:
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "free_run"}
+        out["selected_terms"] = list(self.selected_terms)
+        return out | (self.free_run.to_dict() if self.free_run is not None else {})
+
+
+def _finite(value):
+    return None if isinstance(value, float) and not np.isfinite(value) else value

@@ -24,7 +24,7 @@ from pydantic import Field
 
 from hmid.balance import RigSection, Structure
 from hmid.families._sls_fitted import SLSFitted
-from hmid.families.base import FamilySpec, FitContext, FitData, Fitted
+from hmid.families.base import STATISTICS, FamilySpec, FitContext, FitData, FitSummary, Fitted
 
 KIND = "one-step, with memory"  # force from measured x, P and the memory that x implies
 
@@ -229,9 +229,12 @@ class SLSSpec(FamilySpec):
         n_mean = model.space.dim - (2 if noise == "ar1" else 1)  # sigma (and phi) are noise
         stats = fit_statistics(np.asarray(data.F)[use], prediction, n_mean)
         table = fitted.posterior_table()
-        summary = {"family": "sls", "name": self.name, "n_obs": int(use.sum()),
-                   "n_params": n_mean, "condition_number": None,
-                   "warnings": list(fitted.notes()), **stats}  # fmt: skip
+        summary = FitSummary(
+            family="sls", name=self.name, n_obs=int(use.sum()), n_params=n_mean,
+            condition_number=None, warnings=tuple(fitted.notes()), **stats,
+            record=("family", "name", "n_obs", "n_params", "condition_number", "warnings",
+                    *STATISTICS),
+        )  # fmt: skip
         return [
             Fitted(
                 name=self.name if self.name == "sls" else f"sls:{self.name}",

@@ -43,11 +43,12 @@ class LoopSpec(BaseModel):
     block_s: Annotated[float, Field(gt=0)] = 1.0
     draws: Annotated[int, Field(ge=100, le=10000)] = 400
     max_effects: Annotated[int, Field(ge=0, le=10)] = 3
+    # η² of a signal at which a residual pattern remains (the report calls it structure)
     structure_threshold: Annotated[float, Field(gt=0, lt=1)] = 0.05
     confidence: Annotated[float, Field(gt=0.5, lt=1)] = 0.95
     max_lag_s: Annotated[float, Field(gt=0)] = 0.5  # autocorrelation and cross-correlation
     stride_s: Annotated[float, Field(gt=0)] = 0.05  # decimation for Ljung-Box
-    hint: bool = True  # sparse regression of a residual that keeps unexplained structure
+    hint: bool = True  # sparse regression of a residual that keeps an unexplained pattern
 
     @field_validator("candidates")
     @classmethod

@@ -6,9 +6,10 @@ nonlinear dependence on the signals (which linear tests miss).
   +-``max_lag_s``;
 * Ljung-Box (statsmodels) on the residual decimated to ``stride_s`` (the smoothing filters
   correlate neighbouring samples by construction; past their reach a white residual is white);
-* structure scan: for each signal, the residual's conditional mean in quantile bins (split by the
-  direction of motion) is estimated on three of four interleaved folds of 0.5 s blocks and
-  predicts the fourth:
+* pattern scan (the residual's pattern; a fitted balance's terms are its
+  :class:`~hmid.balance.Structure`): for each signal, the residual's conditional mean in quantile
+  bins (split by the direction of motion) is estimated on three of four interleaved folds of
+  0.5 s blocks and predicts the fourth:
   the cross-fitted share of residual variance it explains is a correlation ratio eta² that sees
   any smooth or stepwise dependence, multiplicative ones included, and is ~0 for noise;
 * the residual's power spectrum (Welch).
@@ -77,14 +78,14 @@ class Diagnostics:
     ljung_box_p: float
     ljung_box_n: int
     ccf: pd.DataFrame  # index lag [s], a column per input
-    structure: pd.DataFrame  # signal -> eta² (cross-fitted), binned means for plots
+    pattern: pd.DataFrame  # signal -> eta² (cross-fitted), binned means for plots
     spectrum: tuple[np.ndarray, np.ndarray]  # frequency [Hz], PSD [unit²/Hz]
     rms: float
 
     @property
     def strongest(self) -> tuple[str, float]:
-        row = self.structure["eta2"].idxmax()
-        return str(row), float(self.structure.loc[row, "eta2"])
+        row = self.pattern["eta2"].idxmax()
+        return str(row), float(self.pattern.loc[row, "eta2"])
 
 
 def _ccf(residual, rows, data, inputs, lags) -> pd.DataFrame:
@@ -106,7 +107,7 @@ def _folds(data: Signals) -> np.ndarray:
     return (np.floor(data["t"] / FOLD_BLOCK_S).astype(int) + data["segment"]) % FOLDS
 
 
-def structure_scan(residual: np.ndarray, rows: np.ndarray, data: Signals) -> pd.DataFrame:
+def pattern_scan(residual: np.ndarray, rows: np.ndarray, data: Signals) -> pd.DataFrame:
     """Cross-fitted eta² of the residual on each signal (binned, split by direction)."""
     direction = (data["v"] >= 0).astype(int)
     fold = _folds(data)[rows]
@@ -190,7 +191,7 @@ def diagnose(
         ljung_box_p=float(lb["lb_pvalue"].iloc[0]),
         ljung_box_n=len(decimated),
         ccf=ccf,
-        structure=structure_scan(residual, rows, data),
+        pattern=pattern_scan(residual, rows, data),
         spectrum=(freq, psd),
         rms=float(np.sqrt(np.mean(residual[rows] ** 2))),
     )

@@ -14,7 +14,6 @@ import time
 from dataclasses import dataclass, replace
 
 import numpy as np
-import pandas as pd
 
 from hmid.balance import Signals, Structure, StructureFit, profile
 from hmid.balance.statistics import residual_tau_int
@@ -22,7 +21,8 @@ from hmid.families.base import FitData, Fitted
 from hmid.loop.candidates import ELASTIC, STIFFNESS, Setting, level, make_candidates
 from hmid.loop.config import LoopSpec
 from hmid.loop.confounds import rivals, separating
-from hmid.loop.diagnostics import structure_scan
+from hmid.loop.decision import Decision
+from hmid.loop.diagnostics import pattern_scan
 from hmid.loop.parallel import screen_round
 from hmid.loop.result import Alternative, LoopResult, finish, make_effect, own_parameters
 from hmid.loop.screen import PROFILE_STEP, Screen
@@ -99,7 +99,7 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
     signals = with_elastic(signals, current, setting.position)
     has_elastic = bool(np.any(signals[ELASTIC])) if ELASTIC in signals else False
     remaining = [c for c in candidates if has_elastic or not c.elastic]
-    rows, effects, steps = [], [], []
+    decisions, effects, steps = [], [], []
     part = "setting up"  # what the clock's next lap timed
     for round_no in range(1, spec.max_effects + 1):
         if round_no > 1:  # the model changed: its elastic force with it
@@ -111,47 +111,67 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
         screened = [s for s in screened if not s.adds_nothing]
         if not screened:
             break
-        p_holm = holm([s.test.p_value for s in screened])
-        # rank on one sample size for all: each candidate's own n_eff (its residual's) decides
-        # significance, but would favour whichever whitens its residual most, not fits best
-        n_common = current.fit.n / residual_tau_int(current.residual, signals)
-        table = [
-            _row(round_no, current, s, p, n_common, spec)
-            for s, p in zip(screened, p_holm, strict=True)
-        ]
-        before = out_of_fold(current.structure, signals, folds)
-        oof = {}
-        for i, row in enumerate(table):
-            if row["passes training"]:
-                oof[i] = out_of_fold(screened[i].joint.structure, signals, folds)
-                cv = change(before, oof[i], folds, counts, spec.confidence)
-                row |= {"CV change": cv.change, "CV upper bound": cv.upper,
-                        "selected": cv.better(spec.margin)}  # fmt: skip
-        selected = [i for i in oof if table[i]["selected"]]
-        rows.extend(table)
-        if not selected:
+        chosen = _select(round_no, current, screened, signals, folds, counts, spec)
+        decisions.extend(chosen.decisions)
+        if chosen.best is None:
             break
-        # BIC on one sample size ranks the selected: of two that fit alike, the simpler
-        best = min(selected, key=lambda i: table[i]["ΔBIC (common n_eff)"])
-        table[best]["added"] = True
-        alternatives = _alternatives(best, screened, oof, table, signals, folds, counts, spec,
-                                     current.columns.names)  # fmt: skip
-        chosen = screened[best]
-        trial = profile(chosen.joint.structure, signals)  # every parameter afresh, jointly
-        effects.append(make_effect(chosen, trial, current, signals, table[best], folds,
-                                   spec.confidence, alternatives))  # fmt: skip
-        remaining.remove(chosen.candidate)
+        added = screened[chosen.best]
+        trial = profile(added.joint.structure, signals)  # every parameter afresh, jointly
+        effects.append(make_effect(added, trial, current, signals, chosen.decisions[chosen.best],
+                                   folds, spec.confidence, chosen.alternatives))  # fmt: skip
+        remaining.remove(added.candidate)
         current = trial
         part = f"round {round_no}: selection, adding its effect"
         steps.append((effects[-1].name, current.scores(held)))  # reported, never decided on
-        # only the structure scan decides whether to go on; the full diagnostics come at the end
-        strongest = structure_scan(current.residual, signals.train, signals)["eta2"].max()
+        # only the pattern scan decides whether to go on; the full diagnostics come at the end
+        strongest = pattern_scan(current.residual, signals.train, signals)["eta2"].max()
         if strongest < spec.structure_threshold:
             break
     clock.lap(part)
-    result = finish(spec, signals, base, start, current, effects, pd.DataFrame(rows), held, steps)
+    result = finish(spec, signals, base, start, current, effects, decisions, held, steps)
     clock.lap("diagnostics and verdict")
     return replace(result, costs=clock.laps)
+
+
+@dataclass(frozen=True)
+class _Round:
+    """One round's decisions, the one to add (its index; None: none was selected) and its
+    indistinguishable rivals."""
+
+    decisions: tuple[Decision, ...]
+    best: int | None
+    alternatives: tuple[Alternative, ...] = ()
+
+
+def _select(round_no, current: StructureFit, screened: list[Screen], signals, folds, counts,
+            spec: LoopSpec) -> _Round:  # fmt: skip
+    """Test every screened candidate on the training rows, cross-validate those that pass, and
+    pick the one to add: of those selected, the lowest ΔBIC on a common sample size."""
+    p_holm = holm([s.test.p_value for s in screened])
+    # rank on one sample size for all: each candidate's own n_eff (its residual's) decides
+    # significance, but would favour whichever whitens its residual most, not fits best
+    n_common = current.fit.n / residual_tau_int(current.residual, signals)
+    decisions = [
+        _tested(round_no, current, s, p, n_common, spec)
+        for s, p in zip(screened, p_holm, strict=True)
+    ]
+    before = out_of_fold(current.structure, signals, folds)
+    oof = {}
+    for i, d in enumerate(decisions):
+        if d.passes_training:
+            oof[i] = out_of_fold(screened[i].joint.structure, signals, folds)
+            cv = change(before, oof[i], folds, counts, spec.confidence)
+            decisions[i] = replace(d, cv_change=cv.change, cv_upper=cv.upper,
+                                   selected=cv.better(spec.margin))  # fmt: skip
+    selected = [i for i in oof if decisions[i].selected]
+    if not selected:
+        return _Round(tuple(decisions), None)
+    # BIC on one sample size ranks the selected: of two that fit alike, the simpler
+    best = min(selected, key=lambda i: decisions[i].delta_bic_common)
+    decisions[best] = replace(decisions[best], added=True)
+    alternatives = _alternatives(best, screened, oof, decisions, signals, folds, counts, spec,
+                                 current.columns.names)  # fmt: skip
+    return _Round(tuple(decisions), best, alternatives)
 
 
 class _Clock:
@@ -168,18 +188,19 @@ class _Clock:
         self._start = now
 
 
-def _alternatives(best, screened, oof, table, signals, folds, counts, spec, model) -> tuple:
-    """Rival physics that cross-validates not clearly worse than the best: indistinguishable."""
+def _alternatives(best, screened, oof, decisions, signals, folds, counts, spec, model) -> tuple:
+    """Rival physics that cross-validates not clearly worse than the best: indistinguishable.
+    Each rival's comparison with the best goes into its entry of ``decisions``."""
     chosen = screened[best].candidate
     out = []
     for i in oof:
         if screened[i].candidate not in rivals(chosen, [screened[i].candidate]):
             continue
         gap = change(oof[best], oof[i], folds, counts, spec.confidence)
-        table[i]["vs added (CV)"] = gap.change
+        decisions[i] = replace(decisions[i], vs_added=gap.change)
         if gap.lower > 0:  # clearly worse, even at the bootstrap's lower bound
             continue
-        table[i]["indistinguishable"] = True
+        decisions[i] = replace(decisions[i], indistinguishable=True)
         s: Screen = screened[i]
         out.append(Alternative(
             s.candidate.name, s.candidate.title, s.candidate.physics,
@@ -189,28 +210,23 @@ def _alternatives(best, screened, oof, table, signals, folds, counts, spec, mode
     return tuple(sorted(out, key=lambda a: a.gap))
 
 
-def _row(round_no, current: StructureFit, s: Screen, p_adj: float, n_common, spec) -> dict:
+def _tested(round_no, current: StructureFit, s: Screen, p_adj: float, n_common, spec) -> Decision:
+    """A candidate's nested test on the training rows, before any cross-validation."""
     test = s.test
     rank = NestedTest.of(current.sse, s.joint.sse, test.q, 0, n_common)
     passes = p_adj < spec.alpha and test.delta_bic < 0 and s.identified
-    return {
-        "round": round_no,
-        "candidate": s.candidate.name,
-        "profiled": s.profiled(),
+    return Decision(
+        round=round_no,
+        candidate=s.candidate.name,
+        profiled=s.profiled(),
         # the residual's correlation with the candidate's (nonlinear) features, jointly
-        "partial R": float(np.sqrt(max(0.0, 1.0 - s.joint.sse / current.sse))),
-        "F": test.f,
-        "n_eff": s.n_eff,
-        "p": test.p_value,
-        "p (Holm)": p_adj,
-        "ΔBIC": test.delta_bic,
-        "ΔBIC (common n_eff)": rank.delta_bic,
-        "identified": s.identified,
-        "passes training": bool(passes),
-        "CV change": np.nan,
-        "CV upper bound": np.nan,
-        "selected": False,
-        "added": False,
-        "vs added (CV)": np.nan,
-        "indistinguishable": False,
-    }
+        partial_r=float(np.sqrt(max(0.0, 1.0 - s.joint.sse / current.sse))),
+        f=test.f,
+        n_eff=s.n_eff,
+        p=test.p_value,
+        p_holm=p_adj,
+        delta_bic=test.delta_bic,
+        delta_bic_common=rank.delta_bic,
+        identified=s.identified,
+        passes_training=bool(passes),
+    )

@@ -1,4 +1,4 @@
-"""Data-driven hints for structure no candidate explains. They name terms, not physics:
+"""Data-driven hints for a residual pattern no candidate explains. They name terms, not physics:
 
 * a sparse regression (orthogonal matching pursuit) of the residual on a generic library of the
   signals;

@@ -44,7 +44,7 @@ def plot_whiteness(result: LoopResult, path: Path) -> None:
     fig.savefig(path, dpi=110)
 
 
-def plot_structure(result: LoopResult, path: Path) -> None:
+def plot_pattern(result: LoopResult, path: Path) -> None:
     """Residual mean per bin of the signal that explained most of it (before) and the one
     that explains most of what remains (after), per direction of motion."""
     fig = _figure(figsize=(11, 4))

@@ -9,8 +9,8 @@ import numpy as np
 import pandas as pd
 
 from hmid.balance.statistics import CALIBRATED_TAU
-from hmid.loop.plots import plot_structure, plot_whiteness
-from hmid.loop.result import LoopResult
+from hmid.loop.plots import plot_pattern, plot_whiteness
+from hmid.loop.result import Effect, LoopResult
 from hmid.report import Figure, Section, Table
 
 
@@ -54,7 +54,7 @@ def diagnostics_table(result: LoopResult) -> pd.DataFrame:
                 **{f"max |ccf| {k}": float(np.nanmax(np.abs(d.ccf[k]))) for k in d.ccf.columns},
                 "strongest signal": signal,
                 "η² (cross-fitted)": eta2,
-                **{f"η² {k}": v for k, v in d.structure["eta2"].items()},
+                **{f"η² {k}": v for k, v in d.pattern["eta2"].items()},
             }
         )
     return pd.DataFrame(rows)
@@ -64,7 +64,7 @@ def metrics(result: LoopResult) -> dict:
     return {
         "base": result.base_name,
         "after": result.after_name,
-        "verdict": result.verdict,
+        "verdict": result.verdict.value,
         "message": result.message,
         "error_kind": "one-step",
         "held_out_before": result.before.to_dict(),
@@ -119,53 +119,90 @@ def loop_section(
 
     light = replace(result, data=None, residual_before=np.empty(0), residual_after=np.empty(0))
     draw(drawing, plot_whiteness, light, figures / f"{prefix}_whiteness.png")
-    plot_structure(result, figures / f"{prefix}_structure.png")
-    table, diag = before_after(result), diagnostics_table(result)
+    plot_pattern(result, figures / f"{prefix}_structure.png")
+    table, diag, tests = before_after(result), diagnostics_table(result), result.tests
     write_csv(table, f"{prefix}_before_after.csv")
     write_csv(diag, f"{prefix}_diagnostics.csv")
-    write_csv(result.tests, f"{prefix}_tests.csv")
-    effect_sections = []
-    for e in result.effects:
-        write_csv(e.parameters, f"{prefix}_effect_{e.name}.csv")
-        rivals = []
-        for a in e.alternatives:
-            write_csv(a.parameters, f"{prefix}_effect_{e.name}_or_{a.name}.csv")
-            rivals.append(
-                Section(
-                    f"Indistinguishable from it: {a.title}",
-                    text=(
-                        f"Physics: {a.physics}.\n\nIts out-of-fold RMSE is "
-                        f"{100 * a.gap:+.2f} % of the added effect's, not clearly worse. "
-                        f"To tell them apart: {a.separating}."
-                    ),
-                    tables=(Table(a.parameters, f"{a.title}: parameters, units and intervals"),),
-                )
-            )
-        effect_sections.append(
+    write_csv(tests, f"{prefix}_tests.csv")
+    effect_sections = tuple(_effect_section(e, prefix, write_csv) for e in result.effects)
+    hint_tables, hint_text = _hint(result, prefix, write_csv)
+    section = Section(
+        title,
+        text=f"**Verdict: {result.verdict.value}.** {result.message}{hint_text}\n\n"
+        + _method_text(result),
+        tables=(
+            Table(table, "Held-out error before and after (one-step)"),
+            Table(
+                result.base_parameters,
+                f"{result.base_name}: its terms refitted by least squares, with intervals",
+            ),
+            Table(tests, "Every candidate tested, per round"),
+            Table(diag, "Residual diagnostics on training rows"),
+            *hint_tables,
+        ),
+        figures=(
+            Figure(figures / f"{prefix}_structure.png", "Where the residual's structure is"),
+            Figure(
+                figures / f"{prefix}_whiteness.png", "Whiteness and independence, before and after"
+            ),
+        ),
+        subsections=effect_sections,
+    )
+    return section, metrics(result)
+
+
+def _effect_section(e: Effect, prefix: str, write_csv) -> Section:
+    """An added effect: its physics, evidence and parameters, and its indistinguishable
+    rivals."""
+    write_csv(e.parameters, f"{prefix}_effect_{e.name}.csv")
+    rivals = []
+    for a in e.alternatives:
+        write_csv(a.parameters, f"{prefix}_effect_{e.name}_or_{a.name}.csv")
+        rivals.append(
             Section(
-                f"Added: {e.title}" if not e.alternatives else f"Added: {e.verdict()}",
-                text=f"Physics: {e.physics}.\n\nEvidence: {e.evidence}.",
-                tables=(Table(e.parameters, f"{e.title}: parameters, units and intervals"),),
-                subsections=tuple(rivals),
+                f"Indistinguishable from it: {a.title}",
+                text=(
+                    f"Physics: {a.physics}.\n\nIts out-of-fold RMSE is "
+                    f"{100 * a.gap:+.2f} % of the added effect's, not clearly worse. "
+                    f"To tell them apart: {a.separating}."
+                ),
+                tables=(Table(a.parameters, f"{a.title}: parameters, units and intervals"),),
             )
         )
-    hint_tables, hint_text = (), ""
-    if result.hint is not None and result.hint.heldout_r2 > 0:
-        write_csv(result.hint.terms, f"{prefix}_hint.csv")
-        hint_tables = (
+    return Section(
+        f"Added: {e.title}" if not e.alternatives else f"Added: {e.verdict()}",
+        text=f"Physics: {e.physics}.\n\nEvidence: {e.evidence}.",
+        tables=(Table(e.parameters, f"{e.title}: parameters, units and intervals"),),
+        subsections=tuple(rivals),
+    )
+
+
+def _hint(result: LoopResult, prefix: str, write_csv) -> tuple[tuple[Table, ...], str]:
+    """The data-driven hint's table (where it explains held-out variance) and its periodicity
+    sentence (where it found one)."""
+    hint = result.hint
+    tables, text = (), ""
+    if hint is not None and hint.heldout_r2 > 0:
+        write_csv(hint.terms, f"{prefix}_hint.csv")
+        tables = (
             Table(
-                result.hint.terms,
+                hint.terms,
                 "Data-driven hint, not an identified effect: sparse regression (orthogonal "
                 f"matching pursuit, coefficients in {result.unit}) of the residual on a generic "
                 "library of standardised signals; "
-                f"it explains {100 * result.hint.heldout_r2:.0f} % of the held-out residual "
+                f"it explains {100 * hint.heldout_r2:.0f} % of the held-out residual "
                 "variance",
             ),
         )
-    if result.hint is not None and result.hint.periodic:
-        hint_text = f"\n\n**Hint (not an identified effect):** the {result.hint.periodic}."
-    text = (
-        f"**Verdict: {result.verdict}.** {result.message}{hint_text}\n\n"
+    if hint is not None and hint.periodic:
+        text = f"\n\n**Hint (not an identified effect):** the {hint.periodic}."
+    return tables, text
+
+
+def _method_text(result: LoopResult) -> str:
+    """How the loop decided: the base, the three roles of rows, the tests and the intervals;
+    and what it cost."""
+    return (
         f"Base: **{result.base_name}** as fitted by its family (the 'before'); for the tests its "
         "terms are refitted by least squares with every profiled parameter profiled, alone and "
         "with each candidate. Three roles of rows: candidates are fitted and tested on the "
@@ -180,25 +217,3 @@ def loop_section(
         "likelihood's on n / τ_int, at the grid's resolution."
         + (f"\n\n{result.cost_text()}" if result.costs else "")
     )
-    section = Section(
-        title,
-        text=text,
-        tables=(
-            Table(table, "Held-out error before and after (one-step)"),
-            Table(
-                result.base_parameters,
-                f"{result.base_name}: its terms refitted by least squares, with intervals",
-            ),
-            Table(result.tests, "Every candidate tested, per round"),
-            Table(diag, "Residual diagnostics on training rows"),
-            *hint_tables,
-        ),
-        figures=(
-            Figure(figures / f"{prefix}_structure.png", "Where the residual's structure is"),
-            Figure(
-                figures / f"{prefix}_whiteness.png", "Whiteness and independence, before and after"
-            ),
-        ),
-        subsections=tuple(effect_sections),
-    )
-    return section, metrics(result)

@@ -4,14 +4,24 @@ and a verdict that names no effect without evidence."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import Enum
 
 import numpy as np
 import pandas as pd
 
 from hmid.balance import Signals, StructureFit, parameters
+from hmid.loop.decision import Decision, decision_table
 from hmid.loop.diagnostics import Diagnostics, diagnose
 from hmid.loop.hint import Hint, sparse_hint
 from hmid.metrics import Scores, score
+
+
+class Verdict(Enum):
+    """What the loop concluded; its value is the report's wording."""
+
+    EXPLAINED = "explained"  # effects added, and no residual pattern remains
+    NOTHING_ATTRIBUTABLE = "no attributable structure"  # nothing added, and no pattern remains
+    PATTERN_REMAINS = "unexplained structure"  # a signal still explains part of the residual
 
 
 @dataclass(frozen=True)
@@ -55,13 +65,13 @@ class LoopResult:
     after_name: str  # that model with the added effects
     unit: str  # of the explained quantity
     base_parameters: pd.DataFrame  # its terms refitted by least squares, with intervals
-    tests: pd.DataFrame  # every candidate of every round
+    decisions: tuple[Decision, ...]  # every candidate of every round
     effects: tuple[Effect, ...]
     before: Scores  # the base model's own prediction, on the loop's held-out rows
     after: Scores
     diagnostics_before: Diagnostics
     diagnostics_after: Diagnostics
-    verdict: str  # "explained", "unexplained structure", "no attributable structure"
+    verdict: Verdict
     message: str
     hint: Hint | None = None
     data: Signals | None = field(default=None, repr=False)  # the rows analysed
@@ -83,6 +93,11 @@ class LoopResult:
         ]
         total = sum(seconds for _, seconds, _ in self.costs)
         return f"The loop took {total:.1f} s: " + "; ".join(parts) + "."
+
+    @property
+    def tests(self) -> pd.DataFrame:
+        """The decisions as the report's table of every candidate tested, per round."""
+        return decision_table(self.decisions)
 
     @property
     def first_effect(self) -> str | None:
@@ -116,19 +131,20 @@ def own_parameters(
 
 
 def make_effect(screened, trial: StructureFit, current: StructureFit, signals: Signals,
-                evidence: dict, folds, confidence: float, alternatives=()) -> Effect:  # fmt: skip
-    """The added effect (``screened``: its screen) with parameters from ``trial``, the joint fit
-    every parameter was profiled afresh in."""
+                decision: Decision, folds, confidence: float,
+                alternatives=()) -> Effect:  # fmt: skip
+    """The added effect (``screened``: its screen; ``decision``: the evidence for it) with
+    parameters from ``trial``, the joint fit every parameter was profiled afresh in."""
     candidate = screened.candidate
     table = own_parameters(candidate, trial, screened.interval, signals, confidence,
                            current.columns.names)  # fmt: skip
+    d = decision
     text = (
-        f"round {evidence['round']}, training rows: F = {evidence['F']:.1f} on n_eff = "
-        f"{evidence['n_eff']:.0f}, Holm-adjusted p = {evidence['p (Holm)']:.2g}, "
-        f"ΔBIC = {evidence['ΔBIC']:.1f}; selection by {int(folds.fold.max()) + 1}-fold blocked "
-        f"cross-validation over {folds.blocks} time blocks: out-of-fold RMSE "
-        f"{100 * evidence['CV change']:+.2f} % (block bootstrap, {confidence:.0%} upper bound "
-        f"{100 * evidence['CV upper bound']:+.2f} %)"
+        f"round {d.round}, training rows: F = {d.f:.1f} on n_eff = {d.n_eff:.0f}, "
+        f"Holm-adjusted p = {d.p_holm:.2g}, ΔBIC = {d.delta_bic:.1f}; selection by "
+        f"{int(folds.fold.max()) + 1}-fold blocked cross-validation over {folds.blocks} time "
+        f"blocks: out-of-fold RMSE {100 * d.cv_change:+.2f} % (block bootstrap, "
+        f"{confidence:.0%} upper bound {100 * d.cv_upper:+.2f} %)"
     )
     return Effect(candidate.name, candidate.title, candidate.physics, table, text,
                   tuple(alternatives))  # fmt: skip
@@ -138,7 +154,7 @@ def _residual_before(signals: Signals, prediction: np.ndarray) -> np.ndarray:
     return signals.target - prediction
 
 
-def finish(spec, signals, base, start, current, effects, tests, held, steps=()) -> LoopResult:
+def finish(spec, signals, base, start, current, effects, decisions, held, steps=()) -> LoopResult:
     """Diagnostics before (the base model's own residual) and after, and the verdict; the
     held-out error before and after on ``held``, the comparison's held-out rows (a lead's reach
     at segment ends is left out of the tests, not of the reported error)."""
@@ -150,37 +166,12 @@ def finish(spec, signals, base, start, current, effects, tests, held, steps=()) 
         after = diagnose(
             current_residual, signals, max_lag_s=spec.max_lag_s, stride_s=spec.stride_s
         )
-    signal, eta2 = after.strongest
-    names = "; ".join(e.verdict() for e in effects)
-    white = (
-        f"Ljung-Box on the residual every {spec.stride_s * 1e3:.0f} ms: p = {after.ljung_box_p:.2g}"
-    )
+    verdict = _verdict(spec, after, effects)
     hint = None
-    if eta2 >= spec.structure_threshold:
-        verdict = "unexplained structure"
-        if spec.hint:
-            hint = sparse_hint(current_residual, signals, signal)
-            if hint.heldout_r2 <= 0 and not hint.periodic:
-                hint = None  # a hint that explains no held-out variance is no hint
-        message = (
-            f"Structure remains that no candidate effect explains: the residual depends on "
-            f"{signal} (cross-fitted η² = {eta2:.3f} ≥ {spec.structure_threshold}); {white}. "
-            + (f"Added before that: {names}. " if effects else "No candidate effect is claimed. ")
-        )
-    else:
-        verdict = "explained" if effects else "no attributable structure"
-        message = (
-            (f"Added: {names}. " if effects else "No candidate effect passed. ")
-            + f"No signal explains {spec.structure_threshold:.0%} of the residual's variance "
-            f"(largest: {signal}, η² = {eta2:.3f}); {white}"
-            + (
-                " — the residual is not white, but its correlation is not attributable to "
-                "the scanned signals (possible causes: sensor resolution and the smoothing "
-                "filters, which correlate neighbouring samples)."
-                if after.ljung_box_p < 0.01
-                else "."
-            )
-        )
+    if verdict is Verdict.PATTERN_REMAINS and spec.hint:
+        hint = sparse_hint(current_residual, signals, after.strongest[0])
+        if hint.heldout_r2 <= 0 and not hint.periodic:
+            hint = None  # a hint that explains no held-out variance is no hint
     before_scores = score(signals.target[held], base.prediction[held], "one-step")
     after_scores = before_scores if not effects else current.scores(held)
     table = parameters(start, signals, spec.confidence)
@@ -189,17 +180,51 @@ def finish(spec, signals, base, start, current, effects, tests, held, steps=()) 
         after_name=base.name + "".join(f" + {e.name}" for e in effects),
         unit=signals.unit("target"),
         base_parameters=table.drop(columns=["positive"]),
-        tests=tests,
+        decisions=tuple(decisions),
         effects=tuple(effects),
         before=before_scores,
         after=after_scores,
         diagnostics_before=before,
         diagnostics_after=after,
         verdict=verdict,
-        message=message,
+        message=_message(spec, after, effects, verdict),
         hint=hint,
         data=signals,
         residual_before=residual_before,
         residual_after=current_residual,
         steps=tuple(steps),
+    )
+
+
+def _verdict(spec, after: Diagnostics, effects) -> Verdict:
+    """A residual pattern remains where a signal explains ``structure_threshold`` of it."""
+    if after.strongest[1] >= spec.structure_threshold:
+        return Verdict.PATTERN_REMAINS
+    return Verdict.EXPLAINED if effects else Verdict.NOTHING_ATTRIBUTABLE
+
+
+def _message(spec, after: Diagnostics, effects, verdict: Verdict) -> str:
+    """The verdict in words: what was added, the pattern left, the whiteness test."""
+    signal, eta2 = after.strongest
+    names = "; ".join(e.verdict() for e in effects)
+    white = (
+        f"Ljung-Box on the residual every {spec.stride_s * 1e3:.0f} ms: p = {after.ljung_box_p:.2g}"
+    )
+    if verdict is Verdict.PATTERN_REMAINS:
+        return (
+            f"Structure remains that no candidate effect explains: the residual depends on "
+            f"{signal} (cross-fitted η² = {eta2:.3f} ≥ {spec.structure_threshold}); {white}. "
+            + (f"Added before that: {names}. " if effects else "No candidate effect is claimed. ")
+        )
+    return (
+        (f"Added: {names}. " if effects else "No candidate effect passed. ")
+        + f"No signal explains {spec.structure_threshold:.0%} of the residual's variance "
+        f"(largest: {signal}, η² = {eta2:.3f}); {white}"
+        + (
+            " — the residual is not white, but its correlation is not attributable to "
+            "the scanned signals (possible causes: sensor resolution and the smoothing "
+            "filters, which correlate neighbouring samples)."
+            if after.ljung_box_p < 0.01
+            else "."
+        )
     )

@@ -39,15 +39,15 @@ def _fit_table(artifacts, unit: str) -> pd.DataFrame:
         rows.append(
             {
                 "model": model.name,
-                "terms": s.get("n_params"),
-                "R² (train)": s.get("r2"),
-                "adj. R² (train)": s.get("r2_adj"),
-                f"RMSE train [{unit}]": s.get("rmse"),
+                "terms": s.n_params,
+                "R² (train)": s.r2,
+                "adj. R² (train)": s.r2_adj,
+                f"RMSE train [{unit}]": s.rmse,
                 f"RMSE held-out [{unit}]": held["rmse (held-out)"],
                 "R² held-out": held["r2 (held-out)"],
-                "AIC": s.get("aic"),
-                "BIC": s.get("bic"),
-                "cond. (scaled)": s.get("condition_number"),
+                "AIC": s.aic,
+                "BIC": s.bic,
+                "cond. (scaled)": s.condition_number,
             }
         )
     return pd.DataFrame(rows)
@@ -89,7 +89,7 @@ def loop_summary(result) -> tuple[tuple[str, str], ...]:
     return (
         (
             "closing the loop",
-            f"{result.verdict}: {added}; held-out RMSE (one-step) {result.base_name} "
+            f"{result.verdict.value}: {added}; held-out RMSE (one-step) {result.base_name} "
             f"{result.before.rmse:.4g} → {result.after_name} {result.after.rmse:.4g} "
             f"{result.unit}",
         ),
@@ -282,7 +282,7 @@ def write_outputs(
         "error_kind": error_kind,
         "best_model": str(best["model"]),
         "held_out": comparison.scores.replace({np.nan: None}).to_dict(orient="records"),
-        "fit": [{"model": m.name, **m.fit_summary, **_interval(m)} for m in fitted],
+        "fit": [{"model": m.name, **m.fit_summary.to_dict(), **_interval(m)} for m in fitted],
         "parameters": {m.name: _parameters(m) for m in fitted if m.family == "balance"},
         "sign_findings": [f.to_dict() for f in findings],
         "friction": None if estimate is None else estimate.to_dict(),

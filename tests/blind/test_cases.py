@@ -5,7 +5,7 @@ from types import SimpleNamespace
 import pandas as pd
 
 from hmid.blind import CLEAN, Case, dataset_for, outcome
-from hmid.loop.result import Alternative, Effect
+from hmid.loop.result import Alternative, Effect, Verdict
 
 
 def _effect(names):
@@ -15,7 +15,7 @@ def _effect(names):
     return Effect(names[0], names[0], "", pd.DataFrame(), "", rivals)
 
 
-def _result(effects, verdict="explained"):
+def _result(effects, verdict=Verdict.EXPLAINED):
     scores = SimpleNamespace(rmse=0.1)
     effects = [_effect(e) for e in effects]
     return SimpleNamespace(
@@ -48,10 +48,10 @@ def test_outcomes_are_judged_by_what_was_claimed():
     hedged = outcome(lib, _result([("stribeck", "coulomb.x")]))
     assert not hedged["correct"] and not hedged["confidently wrong"]
     clean = Case("c", CLEAN, "-", 0, 2, {}, None)
-    assert outcome(clean, _result([], "no attributable structure"))["correct"]
+    assert outcome(clean, _result([], Verdict.NOTHING_ATTRIBUTABLE))["correct"]
     assert outcome(clean, _result(["viscous"]))["confidently wrong"]
     outside = Case("o", "rail_ripple", "m", 0, 3, {"amplitude": 0.1}, None)
-    assert outcome(outside, _result([], "unexplained structure"))["correct"]
-    assert not outcome(outside, _result([], "no attributable structure"))["correct"]
-    claimed = outcome(outside, _result(["coulomb.x"], "unexplained structure"))
+    assert outcome(outside, _result([], Verdict.PATTERN_REMAINS))["correct"]
+    assert not outcome(outside, _result([], Verdict.NOTHING_ATTRIBUTABLE))["correct"]
+    claimed = outcome(outside, _result(["coulomb.x"], Verdict.PATTERN_REMAINS))
     assert not claimed["correct"] and claimed["confidently wrong"]

@@ -42,7 +42,7 @@ def test_every_family_honours_the_fit_contract(family, fits, ch4_split, tmp_path
         for data in (train, held):
             y = model.predict(data)
             assert y.shape == (int(data.rows.sum()),) and np.isfinite(y).all()
-        json.dumps(model.fit_summary)  # metrics.json
+        json.dumps(model.fit_summary.to_dict())  # metrics.json
         assert len(model.coefficients) > 0 and model.equation
         # every interval says what it is: level, method, calibration status
         table = model.coefficient_table()

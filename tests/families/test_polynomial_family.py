@@ -16,7 +16,7 @@ def test_default_intervals_are_autocov_and_every_fit_names_its_method(ch4_split)
         (fitted,) = spec.fit(data, FitContext(5, root / f"poly-{errors}", friction))
         assert fitted.notes[0].startswith("95 % intervals: ") and says in fitted.notes[0]
         assert np.all(np.isfinite(fitted.coefficients["std_err"]))
-        assert tuple(fitted.notes[1:]) == tuple(fitted.fit_summary["warnings"])
+        assert tuple(fitted.notes[1:]) == fitted.fit_summary.warnings
         # the pipeline's smoothed residuals are correlated: only OLS intervals are called narrow
         narrow = any("too narrow" in note for note in fitted.notes)
         assert narrow == (errors == "ols"), fitted.notes

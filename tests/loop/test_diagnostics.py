@@ -3,7 +3,7 @@
 import numpy as np
 from _loop_data import make_data
 
-from hmid.loop.diagnostics import diagnose, structure_scan
+from hmid.loop.diagnostics import diagnose, pattern_scan
 
 
 def test_white_noise_has_no_structure_and_passes_ljung_box():
@@ -22,12 +22,12 @@ def test_a_multiplicative_dependence_is_seen_where_linear_correlation_is_not():
     residual = np.sign(v) * np.cos(2 * np.pi * data["x"] / 0.01)  # ~uncorrelated with x and v
     rows = data.train
     assert abs(np.corrcoef(residual[rows], data["x"][rows])[0, 1]) < 0.2
-    eta = structure_scan(residual, rows, data)["eta2"]
+    eta = pattern_scan(residual, rows, data)["eta2"]
     assert eta["x"] > 0.5
 
 
 def test_a_slow_drift_is_attributed_to_time():
     data, _ = make_data(None)
     residual = data["t"] / data["t"].max() + np.random.default_rng(6).normal(0, 0.1, len(data))
-    eta = structure_scan(residual, data.train, data)["eta2"]
+    eta = pattern_scan(residual, data.train, data)["eta2"]
     assert eta.idxmax() == "t" and eta["t"] > 0.5

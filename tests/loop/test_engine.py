@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from _loop_data import loop_on
 
-from hmid.loop import LoopSpec
+from hmid.loop import LoopSpec, Verdict
+from hmid.loop.decision import LABELS
 
 SPEC = LoopSpec(base="balance")  # the whole library the cylinder is offered
 
@@ -64,7 +65,7 @@ def test_an_undeclared_effect_is_named_and_its_parameter_recovered(
     assert abs(value - truth[parameter]) < 4 * se, (value, lower, upper)
     assert se < 0.05 * truth[parameter]
     assert result.after.rmse < 0.8 * result.before.rmse
-    assert result.verdict == "explained"
+    assert result.verdict is Verdict.EXPLAINED
 
 
 def test_a_pressure_lag_is_found_and_its_delay_bracketed(synthetic):
@@ -126,7 +127,7 @@ def test_clean_data_get_no_effect_and_no_claim_of_structure(synthetic):
         data, _ = synthetic(None, seed=seed)
         result = loop_on(data, SPEC)
         assert result.effects == ()
-        assert result.verdict == "no attributable structure"
+        assert result.verdict is Verdict.NOTHING_ATTRIBUTABLE
         assert result.after.rmse == result.before.rmse
 
 
@@ -150,7 +151,7 @@ def test_structure_outside_the_library_is_reported_as_unexplained(synthetic):
     data, _ = synthetic(ripple)
     result = loop_on(data, SPEC)
     assert result.effects == ()
-    assert result.verdict == "unexplained structure"
+    assert result.verdict is Verdict.PATTERN_REMAINS
     assert result.diagnostics_after.strongest[0] == "x"
     assert "no candidate effect explains" in result.message
     assert result.hint is not None
@@ -161,12 +162,16 @@ def test_structure_outside_the_library_is_reported_as_unexplained(synthetic):
 def test_every_candidate_is_tabulated_with_its_evidence(synthetic):
     data, _ = synthetic(viscous)
     result = loop_on(data, SPEC)
-    first = result.tests[result.tests["round"] == 1]
-    assert set(first["candidate"]) <= set(SPEC.candidate_names(_setting()))
-    assert first.loc[first["added"], "candidate"].tolist() == ["viscous"]
-    assert (first["p (Holm)"] >= first["p"]).all()
-    selected = first[first["selected"]]
-    assert (selected["CV upper bound"] < 0).all() and selected["passes training"].all()
+    first = [d for d in result.decisions if d.round == 1]
+    assert {d.candidate for d in first} <= set(SPEC.candidate_names(_setting()))
+    assert [d.candidate for d in first if d.added] == ["viscous"]
+    assert all(d.p_holm >= d.p for d in first)
+    selected = [d for d in first if d.selected]
+    assert selected and all(d.cv_upper < 0 and d.passes_training for d in selected)
+    # the report's table is rendered from the decisions, a labelled column per field
+    table = result.tests
+    assert list(table.columns) == list(LABELS.values()) and len(table) == len(result.decisions)
+    assert table["p (Holm)"].tolist() == [d.p_holm for d in result.decisions]
     assert "cross-validation" in result.effects[0].evidence
 
 
@@ -182,7 +187,7 @@ def test_a_margin_no_effect_can_meet_adds_nothing(synthetic):
     data, _ = synthetic(viscous)
     result = loop_on(data, SPEC.model_copy(update={"margin": 0.99}))
     assert result.effects == ()
-    assert result.verdict == "unexplained structure"
+    assert result.verdict is Verdict.PATTERN_REMAINS
 
 
 def test_the_loop_is_deterministic(synthetic):

@@ -54,17 +54,18 @@ def fitted(data, true_friction, tmp_path_factory):
 
 def test_default_family_fit_finds_the_truth_and_scores_one_step(fitted, data):
     assert fitted.name == "sindy:stlsq" and fitted.family == "sindy" and fitted.kind == "one-step"
-    assert set(fitted.fit_summary["selected_terms"]) == set(TRUE)
+    extras = fitted.fit_summary.extras
+    assert set(extras.selected_terms) == set(TRUE)
     table = fitted.coefficients
     assert {"term", "value", "unit", "inclusion", "kept by config"} <= set(table.columns)
     held = fitted.predict(data[1])
     assert held.shape == (int(data[1].rows.sum()),)
     assert np.sqrt(np.mean((held - data[1].y) ** 2)) < 0.02  # N; the target noise is 0.01 N
-    json.dumps(fitted.fit_summary)  # metrics.json
-    assert fitted.fit_summary["free_run_diverged"] == 0
-    assert fitted.fit_summary["free_run_rmse_x_m"] < 5e-5
+    json.dumps(fitted.fit_summary.to_dict())  # metrics.json
+    assert extras.free_run.diverged == 0
+    assert extras.free_run.rmse_x_m < 5e-5
     assert any("Conditional on the selected support" in note for note in fitted.notes)
-    assert fitted.fit_summary["intervals"] == "autocov"
+    assert extras.intervals == "autocov"
     on = table["selected"]
     assert (
         table.loc[on, "interval"].str.endswith("autocovariance sandwich, given the support").all()
@@ -98,7 +99,7 @@ def test_diverging_free_run_is_a_note_not_a_crash(data, true_friction, tmp_path)
     spec = SINDySpec(threshold=1e9, keep=(), ensemble={"models": 10})
     context = FitContext(3, tmp_path, true_friction)
     (model,) = spec.fit(data[0], context)
-    assert model.fit_summary["free_run_diverged"] == 1
+    assert model.fit_summary.extras.free_run.diverged == 1
     assert any(n.startswith("free run diverged at t = ") for n in model.notes)
     assert model.equation == "F_m = 0"
 
