@@ -13,7 +13,9 @@ from hmid._lazy import lazy_exports
 from hmid.errors import ConfigError, HmidError, HmidWarning, LogError, SignalError, UnitError
 
 if TYPE_CHECKING:
+    from hmid.api import Run, load_run, run
     from hmid.io.log import CANONICAL_UNITS, Log
+    from hmid.portable import Model, load_model
 
 __version__ = "0.1.0"
 
@@ -24,14 +26,27 @@ __all__ = [
     "HmidWarning",
     "Log",
     "LogError",
+    "Model",
+    "Run",
     "SignalError",
     "UnitError",
     "__version__",
+    "load_model",
+    "load_run",
+    "run",
 ]
 
 # Re-exports whose modules import pandas, resolved on first access (PEP 562) so that `import hmid`
 # and `hmid --help` stay fast.
-_LAZY = {"CANONICAL_UNITS": "hmid.io.log", "Log": "hmid.io.log"}
+_LAZY = {
+    "CANONICAL_UNITS": "hmid.io.log",
+    "Log": "hmid.io.log",
+    "Model": "hmid.portable",
+    "Run": "hmid.api",
+    "load_model": "hmid.portable",
+    "load_run": "hmid.api",
+    "run": "hmid.api",
+}
 
 
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY)
