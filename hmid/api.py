@@ -7,7 +7,8 @@
     sls = run.models["sls"]
     sls.parameters                    # value, unit, interval, method, calibration
     sls.predict(log)                  # one-step: the explained quantity on a hmid.Log
-    sls.simulate(log).scores()        # free run from the log's inputs and first state
+    sls.free_run(log).scores()        # free run from the log's inputs and first state
+    sls.simulate(t, {"P": p}, x0=0.01)  # free run from any state and input
     sls.posterior                     # ArviZ InferenceData (families with a posterior)
 
 A run's models are read from its model files (``models/<name>.json``), so what Python sees is

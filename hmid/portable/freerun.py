@@ -23,7 +23,7 @@ that time, with the state that left first.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
@@ -305,42 +305,89 @@ class FreeRun:
         }
 
 
+@dataclass(frozen=True)
+class Trajectory:
+    """A free run: position, velocity and the explained quantity (None where it is an input)
+    at the times asked for; ``ok`` False if the solver stopped early (NaN after that)."""
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    explained: np.ndarray | None
+    ok: bool
+
+
+@dataclass(frozen=True)
+class Simulator:
+    """``model``'s equation of motion, compiled (:func:`simulator`)."""
+
+    equation: Equation
+    position: str
+    run: object = field(repr=False)
+
+    @property
+    def n_memory(self) -> int:
+        return self.equation.n_memory
+
+    def coefficients(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        eq = self.equation
+        return (
+            np.array([c for _, _, c in eq.rhs], dtype=float),
+            np.array([c for _, _, c in eq.lhs], dtype=float),
+            np.array([d[1] for k, d, _ in eq.rhs if k == "memory"], dtype=float),
+            np.array([T for _, T in eq.lags], dtype=float),
+        )
+
+    def integrate(self, t, inputs, x0: float, v0: float = 0.0, memory0=None, *,
+                  coefficients=None) -> Trajectory:  # fmt: skip
+        """Run from (x0, v0) and the memory arms' states ``memory0`` (default: at rest) over
+        the times ``t``, driven by ``inputs`` (name -> values at ``t``); ``coefficients``
+        replaces :meth:`coefficients` (a posterior draw)."""
+        import jax
+        import jax.numpy as jnp
+
+        eq, n = self.equation, len(t)
+        missing = [name for name in eq.inputs if name not in inputs]
+        if missing:
+            raise ValueError(f"the free run needs the inputs {missing} (at every time of t)")
+        ts = _padded(np.asarray(t, dtype=float))
+        values = np.stack([_padded(np.asarray(inputs[k], dtype=float)) for k in eq.inputs]) if (
+            eq.inputs) else np.zeros((0, len(ts)))  # fmt: skip
+        memory0 = np.zeros(eq.n_memory) if memory0 is None else np.asarray(memory0, dtype=float)
+        lags0 = [values[eq.inputs.index(name), 0] for name, _ in eq.lags]
+        y0 = np.concatenate([[x0, v0], memory0, lags0])
+        cr, cl, taus, lag_times = coefficients or self.coefficients()
+        with jax.enable_x64(True):
+            ys, force, ok = self.run(*(jnp.asarray(a) for a in (ts, y0, values, cr, cl, taus,
+                                                                 lag_times)))  # fmt: skip
+            ys, force = np.asarray(ys)[:n], np.asarray(force)[:n]
+        output = any(k == "accel" for k, _, _ in eq.lhs)
+        return Trajectory(np.asarray(t), ys[:, 0], ys[:, 1], force if output else None, bool(ok))
+
+
+def simulator(model, v0: float | None = None) -> Simulator:
+    """The compiled free run of ``model``; :class:`NotSimulable` says why there is none."""
+    eq = equation(model, v0)
+    return Simulator(eq, model.rig.position, _solver(eq, model.rig.position))
+
+
 def simulate_signals(model, signals, spans, *, v0: float | None = None) -> FreeRun:
     """Free runs of ``model`` on ``signals`` over each span of rows (see :func:`blocks`), each
-    from the measured state at its first row."""
-    import jax
-    import jax.numpy as jnp
-
+    from the measured state at its first row (the memory arms' states from the measured
+    position before it)."""
     try:
-        eq = equation(model, v0)
+        sim = simulator(model, v0)
     except NotSimulable as err:
         return FreeRun(model.name, (), str(err))
-    rig = model.rig
-    position = rig.position
     memory_rows = _memory_states(model, signals)
-    run = _solver(eq, position)
-    coef = [float(c) for _, _, c in eq.rhs], [float(c) for _, _, c in eq.lhs]
-    taus = [d[1] for k, d, _ in eq.rhs if k == "memory"]
-    lag_times = [T for _, T in eq.lags]
-    x_all, v_all, t_all = signals[position], signals["v"], signals["t"]
-    known = signals["explained"]
+    position = model.rig.position
     out = []
-    with jax.enable_x64(True):
-        for rows in spans:
-            ts = _padded(t_all[rows])
-            values = np.stack([_padded(signals[name][rows]) for name in eq.inputs]) if (
-                eq.inputs) else np.zeros((0, len(ts)))  # fmt: skip
-            y0 = np.concatenate([
-                [x_all[rows[0]], v_all[rows[0]]],
-                [m[rows[0]] for m in memory_rows],
-                [signals[name][rows[0]] for name, _ in eq.lags],
-            ])  # fmt: skip
-            ys, force, ok = run(jnp.asarray(ts), jnp.asarray(y0), jnp.asarray(values),
-                                jnp.asarray(coef[0]), jnp.asarray(coef[1]),
-                                jnp.asarray(taus), jnp.asarray(lag_times))  # fmt: skip
-            ys, force = np.asarray(ys)[: len(rows)], np.asarray(force)[: len(rows)]
-            out.append(_block(rig, signals, rows, ys, force, bool(ok), any(
-                k == "accel" for k, _, _ in eq.lhs), known))  # fmt: skip
+    for rows in spans:
+        inputs = {name: signals[name][rows] for name in sim.equation.inputs}
+        first = rows[0]
+        run = sim.integrate(signals["t"][rows], inputs, signals[position][first],
+                            signals["v"][first], [m[first] for m in memory_rows])  # fmt: skip
+        out.append(_block(model.rig, signals, rows, run))
     return FreeRun(model.name, tuple(out))
 
 
@@ -368,28 +415,28 @@ def _memory_states(model, signals) -> list[np.ndarray]:
     return out
 
 
-def _block(rig, signals, rows, ys, force, ok, force_is_output, known) -> BlockRun:
+def _block(rig, signals, rows, run: Trajectory) -> BlockRun:
     x_meas = signals[rig.position][rows]
     v_meas = signals["v"][rows]
     span = np.ptp(x_meas) or 1e-3
     vmax = max(10 * np.max(np.abs(v_meas)), 1.0)
-    outside = (~np.isfinite(ys).all(axis=1)) | (np.abs(ys[:, 0] - x_meas.mean()) > 3.5 * span) | (
-        np.abs(ys[:, 1]) > vmax)  # fmt: skip
-    t = signals["t"][rows]
+    x_out = ~np.isfinite(run.x) | (np.abs(run.x - x_meas.mean()) > 3.5 * span)
+    v_out = ~np.isfinite(run.v) | (np.abs(run.v) > vmax)
+    outside = x_out | v_out
     diverged_at, reason = None, ""
-    if outside.any() or not ok:
+    if outside.any() or not run.ok:
         first = int(np.argmax(outside)) if outside.any() else len(rows) - 1
-        diverged_at = float(t[first])
-        x_out = not np.isfinite(ys[first, 0]) or abs(ys[first, 0] - x_meas.mean()) > 3.5 * span
-        state = "x" if x_out else "v"
+        diverged_at = float(run.t[first])
+        state = "x" if x_out[first] else "v"
         reason = f"{state} left the measured range" if outside.any() else "the solver stopped"
     log = str(signals.frame["log"].iloc[rows[0]])
-    return BlockRun(log, t, x_meas, ys[:, 0], known[rows], force if force_is_output else None,
+    return BlockRun(log, run.t, x_meas, run.x, signals["explained"][rows], run.explained,
                     diverged_at, reason)  # fmt: skip
 
 
-def simulate(model, log, *, v0: float | None = None) -> FreeRun:
-    """Free run of ``model`` over the whole of ``log`` (its usable span) from its first state."""
+def free_run(model, log, *, v0: float | None = None) -> FreeRun:
+    """Free run of ``model`` over ``log`` (from its first usable row to its last) from the
+    measured state there, driven by the log's inputs."""
     signals = model.signals(log)
     usable = np.flatnonzero(signals["usable"])
     spans = [np.arange(usable[0], usable[-1] + 1)] if len(usable) else []

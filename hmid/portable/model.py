@@ -132,12 +132,26 @@ class Model:
             }
         )
 
-    def simulate(self, log: Log, **options):
-        """Free run on ``log``'s inputs from its initial state (see
-        :func:`hmid.portable.freerun.simulate`)."""
-        from hmid.portable.freerun import simulate
+    @cached_property
+    def simulator(self):
+        """The compiled equation of motion (:class:`~hmid.portable.freerun.Simulator`);
+        :class:`~hmid.portable.freerun.NotSimulable` says why a rig has none."""
+        from hmid.portable.freerun import simulator
 
-        return simulate(self, log, **options)
+        return simulator(self)
+
+    def simulate(self, t, inputs, x0: float, v0: float = 0.0, memory0=None):
+        """Free run from the state (``x0``, ``v0``; memory arms ``memory0``, default at rest)
+        over the times ``t``, driven by ``inputs`` (channel -> values at ``t``, SI units, the
+        rig's sign convention): a :class:`~hmid.portable.freerun.Trajectory`."""
+        return self.simulator.integrate(t, inputs, x0, v0, memory0)
+
+    def free_run(self, log: Log):
+        """Free run over ``log`` from its measured first state, scored against its measured
+        position (:class:`~hmid.portable.freerun.FreeRun`)."""
+        from hmid.portable.freerun import free_run
+
+        return free_run(self, log)
 
 
 def load_model(path: str | Path) -> Model:

@@ -94,7 +94,7 @@ def test_free_run_scores_are_reported_and_the_sls_tracks_the_position(finished):
     result, log = finished
     scores = result.scores.set_index("model")
     assert scores.loc["sls", "fit % (x)"] > 90
-    run = result.models["sls"].simulate(log)
+    run = result.models["sls"].free_run(log)
     assert run.scores()["fit % (x)"] > 90 and run.scores()["diverged"] == 0
 
 

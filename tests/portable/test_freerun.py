@@ -1,0 +1,89 @@
+"""The free-run integrator against known answers: a mass dragged against Coulomb friction, a
+mass-spring-damper, and a model whose balance is not an equation of motion."""
+
+import numpy as np
+import pytest
+
+from hmid.portable import Model
+from hmid.portable.file import FORMAT
+from hmid.portable.freerun import NotSimulable
+
+
+def _model(terms, coefficients, *, explained="u", motion=None, channels=("x", "u")):
+    rig = {
+        "name": "test rig",
+        "channels": {c: {} for c in channels},
+        "position": "x",
+        "explained": explained,
+        "balance": [dict(t, value=None) | {"name": t["name"]} for t in terms],
+    }
+    if motion is not None:
+        rig["motion"] = motion
+    document = {
+        "format": FORMAT, "name": "m", "family": "balance", "rig": rig,
+        "units": {"x": "m", "u": "N", "v": "m/s", "a": "m/s^2", "target": "N", "F": "N"},
+        "denoise": {}, "fit": {"v_deadband": 1e-4}, "known": {"free_fall_friction": None},
+        "terms": terms, "coefficients": {"names": [t["name"] for t in terms],
+                                         "values": coefficients, "covariance": None},
+    }  # fmt: skip
+    return Model(document)
+
+
+MASS = {"kind": "channel", "name": "M", "channel": "a"}
+COULOMB = {"kind": "coulomb", "name": "Fc"}
+SPRING = {"kind": "channel", "name": "k", "channel": "x"}
+DAMPER = {"kind": "channel", "name": "c", "channel": "v"}
+
+
+def test_a_mass_dragged_against_coulomb_friction_accelerates_uniformly():
+    # u = M a + Fc sign(v): from rest under a constant 5 N, x = (u - Fc) / (2 M) t^2. The
+    # regularised sign (tanh(v / v0), v0 = 0.1 mm/s) costs at most ~v0 * M / (u - Fc) s of lag.
+    M, Fc, u = 0.75, 1.2, 5.0
+    model = _model([MASS, COULOMB], [M, Fc])
+    t = np.linspace(0.0, 1.0, 1001)
+    run = model.simulate(t, {"u": np.full_like(t, u)}, x0=0.0)
+    exact = 0.5 * (u - Fc) / M * t**2
+    assert run.ok
+    assert np.max(np.abs(run.x - exact)) < 1e-5 * np.max(exact)
+
+
+def test_below_the_friction_level_the_mass_creeps_at_the_regularisation_speed():
+    # a push below the friction level: with sign(v) ~ tanh(v / v0) the mass creeps at
+    # v0 atanh(u / Fc) (0.12 mm/s here) instead of sticking: the price of the regularisation
+    Fc, u, v0 = 1.2, 1.0, 1e-4
+    model = _model([MASS, COULOMB], [0.75, Fc])
+    t = np.linspace(0.0, 2.0, 201)
+    run = model.simulate(t, {"u": np.full_like(t, u)}, x0=0.0)
+    assert abs(run.v[-1] - v0 * np.arctanh(u / Fc)) < 1e-3 * v0
+
+
+def test_a_mass_spring_damper_rings_down_as_the_closed_form_says():
+    m, c, k, x0 = 2.0, 3.0, 150.0, 0.02
+    model = _model([MASS, DAMPER, SPRING], [m, c, k])
+    t = np.linspace(0.0, 3.0, 3001)
+    run = model.simulate(t, {"u": np.zeros_like(t)}, x0=x0)
+    zeta, wn = c / (2 * np.sqrt(k * m)), np.sqrt(k / m)
+    wd = wn * np.sqrt(1 - zeta**2)
+    exact = x0 * np.exp(-zeta * wn * t) * (np.cos(wd * t) + zeta * wn / wd * np.sin(wd * t))
+    assert np.max(np.abs(run.x - exact)) < 1e-5 * x0
+
+
+def test_a_sensor_read_through_the_motion_gives_the_force_it_would_read():
+    # F = (M + m1) a + m1 g declared as motion; F = k (x_r - x) on the model side
+    motion = {"mass": 0.75, "offset": 4.903325}
+    spring = {"kind": "channel", "name": "k", "channel": "x", "sign": -1}
+    offset = {"kind": "constant", "name": "F0"}
+    model = _model([spring, offset], [200.0, 6.0], explained="F", motion=motion,
+                   channels=("x", "F"))  # fmt: skip
+    t = np.linspace(0.0, 5.0, 5001)
+    run = model.simulate(t, {}, x0=0.0)
+    rest = (6.0 - 4.903325) / 200.0
+    exact = rest * (1 - np.cos(np.sqrt(200.0 / 0.75) * t))  # about x = (F0 - m1 g) / k
+    assert np.max(np.abs(run.x - exact)) < 1e-5 * rest
+    assert np.allclose(run.explained, 6.0 - 200.0 * run.x, atol=1e-6)
+
+
+def test_an_equation_not_linear_in_the_acceleration_says_why():
+    model = _model([{"kind": "channel", "name": "q", "channel": "a^2"}], [1.0])
+    with pytest.raises(NotSimulable, match="not linear in a"):
+        model.simulate(np.linspace(0, 1, 11), {"u": np.zeros(11)}, x0=0.0)
