@@ -8,8 +8,8 @@ A family (polynomial, SINDy, SLS, ...) subclasses :class:`ForceModel`, scikit-le
   ``_`` and returns ``self``.
 - ``predict(X)`` raises :class:`NotFittedError` before ``fit``.
 
-``tests/models/test_contract.py`` checks these on every subclass (found, not listed), each
-built by its :meth:`ForceModel.example`.
+``tests/models/test_estimator_contract.py`` checks these on every subclass (found, not
+listed), each built by its :meth:`ForceModel.example`.
 
 ``X`` is a :class:`pandas.DataFrame` with (at least) the columns the model needs, in SI units;
 ``y`` is the muscle force in N, one value per row of ``X``. Every bad input raises a one-line
