@@ -64,7 +64,7 @@ from _calibration import (
 )
 from threadpoolctl import threadpool_limits
 
-from hmid.models.sindy import SINDyForceModel
+from hmid.models.sindy import SINDyForceModel, SINDySettings
 from hmid.models.sindy._intervals import percentile_intervals
 from hmid.models.sindy._model import DOUBT
 from hmid.models.sindy._select import SUPPORT
@@ -101,7 +101,9 @@ def oracle(X: pd.DataFrame, y: np.ndarray, stick_speed: float) -> np.ndarray:
 
 def replicate(X: pd.DataFrame, y: np.ndarray, seed: int, support: str) -> dict:
     """One fit: its support, both intervals of the true terms, and the oracle's estimates."""
-    model = SINDyForceModel(keep=(), confidence=CONFIDENCE, seed=seed, support=support).fit(X, y)
+    model = SINDyForceModel(
+        SINDySettings(keep=(), ensemble={"confidence": CONFIDENCE}, support=support), seed=seed
+    ).fit(X, y)
     names = [f.name for f in model.features_]
     index = [names.index(term) for term in TRUE]
     _, boot = percentile_intervals(model.ensemble_coef_, CONFIDENCE)

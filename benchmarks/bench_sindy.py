@@ -18,7 +18,7 @@ from _timing import median_time
 
 from hmid.balance import RigSection
 from hmid.friction import Coulomb, FallRig, FrictionEstimate
-from hmid.models.sindy import EquationOfMotion, SINDyForceModel, free_run
+from hmid.models.sindy import EquationOfMotion, SINDyForceModel, SINDySettings, free_run
 from hmid.simulate.params import MuscleParams, RigParams
 from hmid.simulate.profiles import Chirp
 from hmid.simulate.rig import integrate
@@ -57,7 +57,7 @@ def normalised_design(model: SINDyForceModel, X: pd.DataFrame, y: np.ndarray):
 
 def bench_fit(rows) -> None:
     X, y = fit_rows()
-    model = SINDyForceModel(keep=())
+    model = SINDyForceModel(SINDySettings(keep=()))
     ours = median_time(lambda: model.fit(X, y), 3)
 
     import pysindy as ps
@@ -86,7 +86,9 @@ def bench_fit(rows) -> None:
 def bench_free_run(rows) -> None:
     frame = truth_frame(30.0)
     train = frame[(~frame["stuck"]) & (frame["t"] < 21)]
-    model = SINDyForceModel(keep=()).fit(train[["log", "t", "x", "v", "P"]], train["F_m"])
+    model = SINDyForceModel(SINDySettings(keep=())).fit(
+        train[["log", "t", "x", "v", "P"]], train["F_m"]
+    )
     fall = FallRig(RIG.M + RIG.m1, RIG.m1 * RIG.g)
     friction = FrictionEstimate.known(Coulomb(), {"Fc": RIG.friction.coulomb}, fall)
     rig = RigSection.model_validate(DEMO_RIG)
@@ -164,7 +166,7 @@ def study(seeds: int) -> str:
                 frame = frame[frame["t"] < 21]
             else:
                 frame = sensor_chain(seed, *windows)
-            model = SINDyForceModel(keep=(), seed=seed, **options)
+            model = SINDyForceModel(SINDySettings(keep=(), **options), seed=seed)
             model.fit(frame[["log", "t", "x", "v", "P"]], frame["F_m"].to_numpy())
             results.append(score(model))
         n = len(results)

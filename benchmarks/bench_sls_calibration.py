@@ -31,6 +31,7 @@ import pandas as pd
 from hmid.models.sls import SamplerConfig, SLSModel, SLSSpace, initial_fit, run_sampler, sls_data
 from hmid.models.sls._sandwich import sandwich_adjust
 from hmid.models.sls.collapsed import exact_posterior
+from hmid.models.sls.terms import SLSForce
 from hmid.signal.moving_average import MovingAverage, Window
 from hmid.simulate.params import RigParams
 from hmid.simulate.profiles import Chirp, RandomLevels
@@ -134,7 +135,7 @@ def calibration(
             truth = {k: v for k, v in truth.items() if k not in ("sigma", "phi")}
         result, space = fit(model, data, seed, max_seconds, posterior)
         if likelihood == "iid+sandwich":
-            result, _ = sandwich_adjust(result, data, 5, cubic=True)
+            result, _ = sandwich_adjust(result, data, SLSForce("cubic", 1))
         table = result.summary(confidence=0.90, transform=physical(space))
         for name, value in truth.items():
             row = table.loc[name]

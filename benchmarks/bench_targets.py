@@ -243,13 +243,18 @@ def sindy_row(repeats: int = 9) -> Row:
     import pysindy as ps
     from bench_sindy import fit_rows, normalised_design
 
-    from hmid.models.sindy import SINDyForceModel
+    from hmid.models.sindy import Ensemble, SINDyForceModel, SINDySettings
 
     X, y = fit_rows()
-    sliding = np.abs(X["v"].to_numpy()) >= SINDyForceModel().stick_speed
+    sliding = np.abs(X["v"].to_numpy()) >= SINDySettings().stick_speed
     X, y = X[sliding], y[sliding]  # the rows the model fits: the same design on both sides
-    threshold = SINDyForceModel(keep=()).fit(X, y).threshold_  # chosen once by CV, untimed
-    model = SINDyForceModel(keep=(), threshold=threshold, n_models=2, intervals="autocov")
+    # chosen once by CV, untimed
+    threshold = SINDyForceModel(SINDySettings(keep=())).fit(X, y).threshold_
+    model = SINDyForceModel(
+        SINDySettings(keep=(), threshold=threshold, intervals="autocov").model_copy(
+            update={"ensemble": Ensemble.model_construct(models=2)}  # below a config's 10: timing
+        )
+    )
     optimizer = ps.STLSQ(threshold=threshold, alpha=0.0)
 
     def direct():

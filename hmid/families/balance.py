@@ -61,18 +61,13 @@ class BalanceSpec(FamilySpec):
 
     @classmethod
     def example(cls, rig: RigSection) -> BalanceSpec:
-        """The declared terms alone; with a slot, the standard linear solid as its terms."""
+        """The declared terms alone; with a slot, the standard linear solid (a linear spring,
+        one arm) as its terms."""
         if rig.slot is None:
             return cls()
-        x, P = rig.position, "P"
-        return cls(
-            slot=[
-                {"kind": "channel", "name": "A_eff", "channel": P, "positive": True},
-                {"kind": "constant", "name": "F0"},
-                {"kind": "channel", "name": "k1", "channel": x, "sign": -1, "positive": True},
-                {"kind": "memory", "name": "k2", "channel": x, "sign": -1, "positive": True},
-            ]
-        )
+        from hmid.models.sls.terms import SLSForce
+
+        return cls(slot=SLSForce("linear", 1).terms(position=rig.position, pressure="P"))
 
     def model_names(self) -> list[str]:
         return [self.name]

@@ -162,6 +162,17 @@ class FitSummary:
             raise ValueError(f"FitSummary.record: {unknown} are no fields; it has {sorted(known)}")
 
     @classmethod
+    def of_fit(cls, family: str, name: str, y: np.ndarray, y_hat: np.ndarray, n_params: int,
+               **more) -> FitSummary:  # fmt: skip
+        """From the training target ``y`` and its fit ``y_hat`` (R², RMSE, AIC, BIC by
+        :func:`hmid.models.base.fit_statistics`), with ``more`` fields (``tau_int``, ...)."""
+        from hmid.models.base import fit_statistics
+
+        stats = fit_statistics(np.asarray(y), np.asarray(y_hat), n_params)
+        return cls(family=family, name=name, n_obs=int(np.size(y)), n_params=n_params,
+                   **stats, **more)  # fmt: skip
+
+    @classmethod
     def of_model(cls, summary, **more) -> FitSummary:
         """From a model's ``summary_`` (:class:`hmid.models.base.FitSummary`), with ``more``
         fields (``extras``, ...)."""

@@ -48,33 +48,16 @@ from dataclasses import dataclass, fields
 from typing import Annotated, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field
 
 from hmid.balance import RigSection
 from hmid.errors import ConfigError
 from hmid.families.base import FamilySpec, FitContext, FitData, FitExtras, FitSummary, Fitted
-
-Variable = Literal["x", "v", "P"]
+from hmid.models.sindy._settings import SINDySettings
 
 
 class _Section(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
-
-class CrossValidation(_Section):
-    """Blocked K-fold CV over the training rows along a log-spaced threshold path."""
-
-    folds: Annotated[int, Field(ge=2, le=20)] = 5
-    points: Annotated[int, Field(ge=5, le=200)] = 30
-    rule: Literal["one_se", "min"] = "one_se"
-
-
-class Ensemble(_Section):
-    """Blocked bootstrap: ``models`` STLSQ fits on resampled ``block_seconds`` blocks."""
-
-    models: Annotated[int, Field(ge=10, le=2000)] = 50
-    block_seconds: Annotated[float, Field(gt=0, le=600)] = 0.25
-    confidence: Annotated[float, Field(gt=0.5, lt=1)] = 0.95
 
 
 class FreeRun(_Section):
@@ -117,70 +100,26 @@ class SmoothedFiniteDifferenceVelocity(_Section):
         )
 
 
-class SINDySpec(FamilySpec):
-    """A SINDy force map and its equation of motion; see the module docstring for the keys."""
+class SINDySpec(SINDySettings, FamilySpec):
+    """A SINDy force map and its equation of motion; see the module docstring for the keys.
+
+    The fit's hyperparameters are :class:`~hmid.models.sindy.SINDySettings` (declared and
+    validated there, once); the family adds its name, the seed offset, the velocity and the
+    free run."""
 
     family: Literal["sindy"] = "sindy"
     imports: ClassVar[tuple[str, ...]] = ("hmid.models.sindy", "hmid.models.sindy._stlsq")
     name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$")] = "stlsq"
-    variables: Annotated[tuple[Variable, ...], Field(min_length=1)] = ("x", "v", "P")
-    degree: Annotated[int, Field(ge=1, le=4)] = 3
-    max_degree: dict[Variable, Annotated[int, Field(ge=0, le=4)]] = Field(
-        default_factory=lambda: {"P": 1}
-    )
-    friction_terms: bool = True
-    v0: Annotated[float, Field(gt=0, le=1)] = 1e-3
-    stick_speed: Annotated[float, Field(ge=0, le=1)] = 1e-2
-    # An equation of motion needs the pressure drive and a restoring force. On quasi-static logs
-    # F_m ~ m1 g + friction, and cross-validation alone keeps only {1, tanh(v/v0)} (a map with no
-    # P and no x, whose free run drifts); ``keep`` spares these terms from the threshold.
-    keep: tuple[str, ...] = ("x", "P")
-    threshold: Literal["cv"] | Annotated[float, Field(ge=0)] = "cv"
-    cv: CrossValidation = CrossValidation()
-    support: Literal["cv", "threshold"] = "cv"
-    ridge: Annotated[float, Field(ge=0)] = 0.0
-    ensemble: Ensemble = Ensemble()
-    # autocov: calibrated (benchmarks/bench_calibration_sindy.py); bootstrap: the old percentile
-    # intervals, kept for comparison -- far wider wherever resamples pick other terms
-    intervals: Literal["autocov", "bootstrap"] = "autocov"
     seed_offset: Annotated[int, Field(ge=0)] = 0
     velocity: Annotated[
         PipelineVelocity | SmoothedFiniteDifferenceVelocity, Field(discriminator="kind")
     ] = PipelineVelocity()
     free_run: FreeRun = FreeRun()
 
-    @field_validator("threshold", mode="before")
-    @classmethod
-    def _threshold(cls, value):
-        number = isinstance(value, int | float) and not isinstance(value, bool)
-        if value != "cv" and not (number and value >= 0):
-            raise ValueError("must be 'cv' (cross-validated) or a number >= 0")
-        return value
-
-    @model_validator(mode="after")
-    def _consistent(self) -> SINDySpec:
-        if len(set(self.variables)) != len(self.variables):
-            raise ValueError(f"variables must not repeat, got {list(self.variables)}")
-        extra = sorted(set(self.max_degree) - set(self.variables))
-        if extra:
-            raise ValueError(f"max_degree names {extra}, which are not among variables")
-        from hmid.models.sindy._library import FeatureLibrary, canonical_name
-
-        library = FeatureLibrary(
-            self.variables, self.degree, dict(self.max_degree), self.friction_terms, self.v0
-        )
-        candidates = library.candidate_names()
-        unknown = [k for k in self.keep if canonical_name(k) not in candidates]
-        if unknown:
-            raise ValueError(
-                f"keep names {unknown}, which are not library terms; terms: {', '.join(candidates)}"
-            )
-        if self.stick_speed and self.friction_terms and self.v0 > 10 * self.stick_speed:
-            raise ValueError(
-                f"v0={self.v0} m/s is over ten times stick_speed={self.stick_speed} m/s: "
-                "tanh(v/v0) would be nearly linear on the fitted rows; lower v0"
-            )
-        return self
+    def settings(self) -> SINDySettings:
+        """The fit's hyperparameters alone (already validated: not validated again)."""
+        fields = {k: getattr(self, k) for k in SINDySettings.model_fields}
+        return SINDySettings.model_construct(**fields)
 
     def model_names(self) -> list[str]:
         return [f"sindy:{self.name}"]
@@ -207,14 +146,8 @@ class SINDySpec(FamilySpec):
         if velocity is not None:
             frame = with_velocity(frame, whole, velocity)
         model = SINDyForceModel(
-            variables=self.variables, degree=self.degree, max_degree=dict(self.max_degree),
-            friction_term=self.friction_terms, v0=self.v0, stick_speed=self.stick_speed,
-            keep=self.keep, threshold=self.threshold, folds=self.cv.folds,
-            path_points=self.cv.points, rule=self.cv.rule, support=self.support,
-            ridge=self.ridge, n_models=self.ensemble.models,
-            block_seconds=self.ensemble.block_seconds, confidence=self.ensemble.confidence,
-            intervals=self.intervals, seed=context.seed + self.seed_offset, name=self.name,
-        )  # fmt: skip
+            self.settings(), seed=context.seed + self.seed_offset, name=self.name
+        )
         model.fit(frame, data.slot_sign * data.y)
         notes = list(model.summary_.warnings)
         eom, run, skipped = None, None, "disabled in the config"

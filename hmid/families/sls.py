@@ -93,15 +93,20 @@ class SLSSpec(FamilySpec):
     @property
     def dimension(self) -> int:
         """Sampled coordinates: the force parameters, sigma, and phi when it may be AR(1)."""
-        spring = 4 if self.spring == "cubic" else 3
-        return spring + 2 * self.arms + 1 + (self.noise != "iid")
+        # the model package imports JAX; check() asks for this only when the posterior is mcmc
+        from hmid.models.sls.terms import SLSForce
+
+        force = SLSForce(self.spring, self.arms)
+        return force.n_linear + force.n_relaxation + 1 + (self.noise != "iid")
 
     def structure(self, rig: RigSection, taus: tuple[float, ...] | None = None) -> Structure:
         """The SLS as balance terms (sign of the slot built in), tau profiled on a grid."""
-        from hmid.models.sls.terms import TAU_GRID, sls_terms
+        from hmid.models.sls.terms import TAU_GRID, SLSForce
 
-        terms = sls_terms(self.spring, self.arms, position=rig.position, pressure=self.pressure,
-                          sign=rig.slot.sign, warmup_s=self.memory_warmup_s)  # fmt: skip
+        terms = SLSForce(self.spring, self.arms).terms(
+            position=rig.position, pressure=self.pressure, sign=rig.slot.sign,
+            warmup_s=self.memory_warmup_s,
+        )  # fmt: skip
         values = {}
         if taus is not None:
             first = len(terms) - self.arms
@@ -205,8 +210,7 @@ class SLSSpec(FamilySpec):
             if noise == "iid" and self.errors == "autocov":
                 from hmid.models.sls._sandwich import sandwich_adjust
 
-                n_linear = 4 + (self.spring == "cubic")
-                result, adjustment = sandwich_adjust(result, data, n_linear, self.spring == "cubic")
+                result, adjustment = sandwich_adjust(result, data, model.space.force)
         else:
             result = self._mcmc(model, data, start, noise, context)
         (findings,) = checking.results()

@@ -8,6 +8,9 @@ A family (polynomial, SINDy, SLS, ...) subclasses :class:`ForceModel`, scikit-le
   ``_`` and returns ``self``.
 - ``predict(X)`` raises :class:`NotFittedError` before ``fit``.
 
+``tests/models/test_estimator_contract.py`` checks these on every subclass (found, not
+listed), each built by its :meth:`ForceModel.example`.
+
 ``X`` is a :class:`pandas.DataFrame` with (at least) the columns the model needs, in SI units;
 ``y`` is the muscle force in N, one value per row of ``X``. Every bad input raises a one-line
 :class:`~hmid.errors.SignalError` naming the column (and the row, counted from 0 in the order
@@ -174,6 +177,11 @@ class ForceModel(ABC):
     """
 
     family: ClassVar[str] = "force model"
+
+    @classmethod
+    def example(cls) -> ForceModel:
+        """A cheap, valid, unfitted instance (for the contract tests and documentation)."""
+        return cls()
 
     # -- hyper-parameters -----------------------------------------------------------------------
     @classmethod

@@ -148,6 +148,10 @@ class PolynomialModel(ForceModel):
         self.units = None if units is None else dict(units)
         self.target_unit = target_unit
 
+    @classmethod
+    def example(cls) -> PolynomialModel:
+        return cls("cubic_xvP")
+
     @property
     def name(self) -> str:
         """The variant name, or ``'custom'`` for an explicit term tuple."""

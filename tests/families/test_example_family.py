@@ -15,7 +15,15 @@ from test_contract import test_every_family_states_terms_the_loop_can_refit as r
 
 from hmid.balance import RigSection, Structure, fit, make_term, parameters, residual_tau_int
 from hmid.balance.statistics import CALIBRATED_TAU
-from hmid.families import FAMILIES, FamilySpec, FitContext, FitData, Fitted, FittedModel
+from hmid.families import (
+    FAMILIES,
+    FamilySpec,
+    FitContext,
+    FitData,
+    FitSummary,
+    Fitted,
+    FittedModel,
+)
 from hmid.intervals import IntervalNote
 
 
@@ -46,7 +54,14 @@ class LinearSpringSpec(FamilySpec):  # 1. a config section, named by its ``famil
                 family=self.family,
                 model=FittedLinearSpring(fitted.structure, fitted.fit.coef.copy()),
                 kind="one-step",
-                fit_summary={"tau_int": tau},
+                fit_summary=FitSummary.of_fit(
+                    self.family,
+                    "linear_spring",
+                    data.y,
+                    fitted.prediction[data.rows],
+                    3,
+                    tau_int=tau,
+                ),
                 coefficients=parameters(fitted, data.signals, self.confidence),
                 equation="F_m = A P + F0 - k x",
                 interval=IntervalNote(  # 8. what its intervals are, who calibrated them

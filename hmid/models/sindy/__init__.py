@@ -32,17 +32,21 @@ from hmid.models.sindy._freerun import (
 )
 from hmid.models.sindy._library import TANH_NAME, Feature, FeatureLibrary, ForceMap
 from hmid.models.sindy._model import SINDyForceModel
+from hmid.models.sindy._settings import CrossValidation, Ensemble, SINDySettings
 from hmid.models.sindy._sparse import ThresholdPath
 
 __all__ = [
     "TANH_NAME",
     "BlockRun",
+    "CrossValidation",
+    "Ensemble",
     "EquationOfMotion",
     "Feature",
     "FeatureLibrary",
     "ForceMap",
     "FreeRunResult",
     "SINDyForceModel",
+    "SINDySettings",
     "ThresholdPath",
     "free_run",
     "held_out_blocks",

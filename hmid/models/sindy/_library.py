@@ -49,7 +49,11 @@ def _exponent_term(variables: tuple[str, ...], powers: np.ndarray) -> Term:
 
 
 class FeatureLibrary:
-    """Builds, fits and evaluates the candidate library (see the module docstring)."""
+    """Builds, fits and evaluates the candidate library (see the module docstring).
+
+    Its arguments are trusted: :meth:`SINDySettings.library
+    <hmid.models.sindy.SINDySettings.library>` builds it from validated settings.
+    """
 
     def __init__(
         self,
@@ -59,20 +63,9 @@ class FeatureLibrary:
         friction_term: bool = True,
         v0: float = 1e-3,
     ) -> None:
+        # the values are those of a validated SINDySettings (its library()): not checked again
         variables = tuple(variables)
-        if not variables or len(set(variables)) != len(variables):
-            raise ConfigError(f"variables must be distinct names among x, v, P, got {variables}")
-        unknown = [v for v in variables if v not in ("x", "v", "P")]
-        if unknown:
-            raise ConfigError(f"variables {unknown} are not among x, v, P")
         caps = {"P": 1} if max_degree is None else dict(max_degree)
-        for name in caps:
-            if name not in ("x", "v", "P"):
-                raise ConfigError(f"max_degree names {name!r}, which is not one of x, v, P")
-        if not (isinstance(degree, int) and 1 <= degree <= 6):
-            raise ConfigError(f"degree must be an integer in 1 ... 6, got {degree!r}")
-        if not (math.isfinite(v0) and v0 > 0):
-            raise ConfigError(f"v0 must be a positive speed in m/s, got {v0!r}")
         self.variables = variables
         self.degree = degree
         self.caps = {v: c for v, c in caps.items() if v in variables}

@@ -31,7 +31,6 @@ from the library: they may be narrow and still miss the truth.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 
 import numpy as np
@@ -49,14 +48,14 @@ from hmid.models.base import (
     fit_statistics,
 )
 from hmid.models.sindy._intervals import (
-    INTERVALS,
     describe,
     note,
     percentile_intervals,
     support_intervals,
 )
-from hmid.models.sindy._library import Feature, FeatureLibrary, ForceMap, canonical_name
-from hmid.models.sindy._select import SUPPORT, refit, support_choice
+from hmid.models.sindy._library import Feature, ForceMap, canonical_name
+from hmid.models.sindy._select import refit, support_choice
+from hmid.models.sindy._settings import CrossValidation, Ensemble, SINDySettings
 from hmid.models.sindy._sparse import (
     ThresholdPath,
     bagging,
@@ -77,12 +76,14 @@ DOUBT = (0.2, 0.8)
 class SINDyForceModel(ForceModel):
     """Sparse force map F_m(x, v, P) by pysindy's STLSQ; see the module docstring.
 
-    ``fit(X, y)`` reads x, v, P and, when present, ``log`` and ``t`` (blocks of
-    ``block_seconds`` within each log; without ``t`` the rows form 50 equal blocks in order).
-    ``support`` is how a cross-validated threshold's support is chosen (``"cv"`` or
-    ``"threshold"``, see the module docstring; a fixed threshold keeps STLSQ's); ``intervals``
-    is the method of the coefficients' ``confidence`` intervals: ``"autocov"`` (post-selection
-    OLS, conditional on the selected support) or ``"bootstrap"``.
+    ``settings`` (:class:`~hmid.models.sindy.SINDySettings`, validated there and trusted here)
+    holds every hyperparameter of the fit; ``seed`` seeds the bootstrap and ``name`` names the
+    fitted model. ``fit(X, y)`` reads x, v, P and, when present, ``log`` and ``t`` (blocks of
+    ``settings.ensemble.block_seconds`` within each log; without ``t`` the rows form 50 equal
+    blocks in order). ``settings.support`` is how a cross-validated threshold's support is
+    chosen (``"cv"`` or ``"threshold"``, see the module docstring; a fixed threshold keeps
+    STLSQ's); ``settings.intervals`` is the method of the coefficients' intervals:
+    ``"autocov"`` (post-selection OLS, conditional on the selected support) or ``"bootstrap"``.
 
     Fitted attributes, in library order: ``coef_`` (0 for terms left out), ``std_err_`` and
     ``ci_`` (n_terms x 2) of the chosen method (NaN for terms left out under ``"autocov"``),
@@ -95,78 +96,50 @@ class SINDyForceModel(ForceModel):
     family = "sindy"
 
     def __init__(
-        self,
-        variables: tuple[str, ...] = ("x", "v", "P"),
-        degree: int = 3,
-        max_degree: Mapping[str, int] | None = None,
-        friction_term: bool = True,
-        v0: float = 1e-3,
-        stick_speed: float = 1e-2,
-        keep: tuple[str, ...] = ("x", "P"),
-        threshold: float | str = "cv",
-        folds: int = 5,
-        path_points: int = 30,
-        rule: str = "one_se",
-        support: str = "cv",
-        ridge: float = 0.0,
-        n_models: int = 50,
-        block_seconds: float = 0.25,
-        confidence: float = 0.95,
-        intervals: str = "autocov",
-        seed: int = 0,
-        name: str = "sindy",
+        self, settings: SINDySettings | None = None, *, seed: int = 0, name: str = "sindy"
     ) -> None:
-        if not (threshold == "cv" or (isinstance(threshold, int | float) and threshold >= 0)):
-            raise ConfigError(f"threshold must be 'cv' or a number >= 0, got {threshold!r}")
-        if rule not in ("one_se", "min"):
-            raise ConfigError(f"rule must be 'one_se' or 'min', got {rule!r}")
-        if support not in SUPPORT:
-            raise ConfigError(f"support must be one of {', '.join(SUPPORT)}, got {support!r}")
-        if not (isinstance(folds, int) and folds >= 2):
-            raise ConfigError(f"folds must be an integer >= 2, got {folds!r}")
-        if not (isinstance(n_models, int) and n_models >= 2):
-            raise ConfigError(f"n_models must be an integer >= 2, got {n_models!r}")
-        if not (0.5 < confidence < 1):
-            raise ConfigError(f"confidence must lie in (0.5, 1), got {confidence!r}")
-        if intervals not in INTERVALS:
-            raise ConfigError(f"intervals must be one of {', '.join(INTERVALS)}, got {intervals!r}")
-        for key, value in (("stick_speed", stick_speed), ("ridge", ridge)):
-            if not (math.isfinite(value) and value >= 0):
-                raise ConfigError(f"{key} must be a finite number >= 0, got {value!r}")
-        if not (math.isfinite(block_seconds) and block_seconds > 0):
-            raise ConfigError(f"block_seconds must be > 0, got {block_seconds!r}")
-        # validates variables, degree, max_degree, v0 and keep with one-line messages
-        library = FeatureLibrary(variables, degree, max_degree, friction_term, v0)
-        candidates = library.candidate_names()
-        for term in keep:
-            if canonical_name(term) not in candidates:
-                raise ConfigError(
-                    f"keep names {term!r}, which is not a library term; terms: "
-                    f"{', '.join(candidates)}"
-                )
-        self.variables = tuple(variables)
-        self.degree = degree
-        self.max_degree = None if max_degree is None else dict(max_degree)
-        self.friction_term = friction_term
-        self.v0 = v0
-        self.stick_speed = stick_speed
-        self.keep = tuple(keep)
-        self.threshold = threshold
-        self.folds = folds
-        self.path_points = path_points
-        self.rule = rule
-        self.support = support
-        self.ridge = ridge
-        self.n_models = n_models
-        self.block_seconds = block_seconds
-        self.confidence = confidence
-        self.intervals = intervals
+        if settings is not None and not isinstance(settings, SINDySettings):
+            raise ConfigError(
+                f"settings must be a SINDySettings (validated hyperparameters), got "
+                f"{type(settings).__name__}; e.g. SINDySettings(degree=2, keep=())"
+            )
+        self.settings = SINDySettings() if settings is None else settings
         self.seed = seed
         self.name = name
 
+    @classmethod
+    def example(cls) -> SINDyForceModel:
+        """Few threshold points and bootstrap fits: a cheap fit."""
+        return cls(SINDySettings(cv=CrossValidation(points=5), ensemble=Ensemble(models=10)))
+
+    # read-only views of the settings that reports and the family read
+    @property
+    def v0(self) -> float:
+        return self.settings.v0
+
+    @property
+    def stick_speed(self) -> float:
+        return self.settings.stick_speed
+
+    @property
+    def confidence(self) -> float:
+        return self.settings.ensemble.confidence
+
+    @property
+    def intervals(self) -> str:
+        return self.settings.intervals
+
+    @property
+    def n_models(self) -> int:
+        return self.settings.ensemble.models
+
+    @property
+    def block_seconds(self) -> float:
+        return self.settings.ensemble.block_seconds
+
     @property
     def required_columns(self) -> tuple[str, ...]:
-        return tuple(dict.fromkeys((*self.variables, "v")))
+        return tuple(dict.fromkeys((*self.settings.variables, "v")))
 
     # -- fitting ---------------------------------------------------------------------------------
     def fit(self, X: pd.DataFrame, y: np.ndarray) -> SINDyForceModel:
@@ -194,79 +167,26 @@ class SINDyForceModel(ForceModel):
     def _fit_blocks_serial(
         self, X: Mapping[str, np.ndarray], y: np.ndarray, blocks: np.ndarray
     ) -> None:
-        source = f"{type(self).__name__}.fit"
-        if y.size < MIN_ROWS:
-            raise SignalError(
-                f"{source}: {y.size} rows cannot fit a sparse model; pass at least {MIN_ROWS}"
-            )
-        sliding = np.abs(X["v"]) >= self.stick_speed
-        self.n_stuck_ = int((~sliding).sum())
-        if sliding.sum() < MIN_ROWS:
-            raise SignalError(
-                f"{source}: only {int(sliding.sum())} rows have |v| >= stick_speed="
-                f"{self.stick_speed} m/s; a fit needs at least {MIN_ROWS} sliding rows"
-            )
-        X = {k: np.asarray(v)[sliding] for k, v in X.items()}
-        y, blocks = y[sliding], np.unique(blocks[sliding], return_inverse=True)[1]
-        notes = []
-        if blocks.max() + 1 < MIN_BLOCKS:
-            notes.append(
-                f"the rows span only {blocks.max() + 1} blocks of {self.block_seconds:g} s: "
-                f"resampled as {MIN_ROWS} equal row blocks instead (too short for the bootstrap "
-                "to respect autocorrelation)"
-            )
-            blocks = (np.arange(y.size) * MIN_ROWS) // y.size
-        library = FeatureLibrary(
-            self.variables, self.degree, self.max_degree, self.friction_term, self.v0
-        )
+        X, y, blocks, notes = self._sliding_rows(X, y, blocks)
+        library = self.settings.library()
         design = library.fit_transform(X)
         rms = np.sqrt(np.mean(design**2, axis=0))
         rms[rms == 0] = 1.0
         y_scale = float(np.std(y)) or 1.0
         Z = design / rms
         stats = block_stats(Z, y / y_scale, blocks)
-        kept = {canonical_name(k) for k in self.keep}
+        kept = {canonical_name(k) for k in self.settings.keep}
         keep = np.array([f.name in kept for f in library.features_])
-        alpha = self.ridge * len(y)
-        if self.threshold == "cv":
-            path = threshold_path(
-                stats, points=self.path_points, folds=min(self.folds, stats.n_blocks),
-                rule=self.rule, alpha=alpha, keep=keep,
-            )  # fmt: skip
-            threshold = path.chosen
-        else:
-            path, threshold = None, float(self.threshold)
-        whole = combine(stats, np.ones(stats.n_blocks))  # the R factor of [Z | y]
-        xi = stlsq(whole, threshold, alpha, keep=keep)
-        rng = np.random.default_rng(self.seed)
-        ensemble = bagging(stats, threshold, self.n_models, rng, alpha=alpha, keep=keep)
-        choice = None  # a fixed threshold, or support="threshold": STLSQ's support
-        if self.support == "cv" and path is not None:
-            choice = support_choice(stats, min(self.folds, stats.n_blocks), path, ensemble,
-                                    self.rule, alpha)  # fmt: skip
-            xi = xi if choice is None else refit(whole, choice.supports[choice.chosen], alpha)
+        whole, xi, ensemble = self._select(stats, keep, self.settings.ridge * len(y))
         to_physical = y_scale / rms * np.array([f.factor for f in library.features_])
         self.library_ = library
         self.features_: tuple[Feature, ...] = library.features_
-        self.threshold_ = threshold
         self.kept_ = keep
-        self.path_: ThresholdPath | None = path
-        self.choice_ = choice
         self.coef_ = xi * to_physical
         self.normalized_coef_ = xi
         self.ensemble_coef_ = ensemble * to_physical
         self.inclusion_ = np.mean(ensemble != 0, axis=0)
-        # the residual's correlation is reported for either method (a diagnostic of the fit)
-        post = support_intervals(Z, y / y_scale, xi, self.confidence)
-        self.tau_int_, self.acf_window_ = post.tau_int, post.window
-        if self.intervals == "autocov":
-            scale = np.abs(to_physical)
-            self.std_err_ = post.std_err * scale
-            self.ci_ = np.sort(post.ci * to_physical[:, None], axis=1)
-            self.df_ = post.df
-        else:
-            self.std_err_, self.ci_ = percentile_intervals(self.ensemble_coef_, self.confidence)
-            self.df_ = None
+        self._intervals(Z, y / y_scale, xi, to_physical)
         self.n_blocks_ = stats.n_blocks
         self.coefficients_ = tuple(
             Coefficient(
@@ -279,34 +199,6 @@ class SINDyForceModel(ForceModel):
         )
         fitted = design @ (xi * y_scale / rms)
         n_params = int(np.count_nonzero(xi))
-        warnings_ = notes
-        if self.n_stuck_:
-            warnings_.append(
-                f"{self.n_stuck_} rows with |v| < {self.stick_speed} m/s (block stuck or about to: "
-                "static friction indeterminate, velocity sign unreliable) were left out of the fit"
-            )
-        if library.dropped_:
-            warnings_.append(f"duplicate library columns dropped: {', '.join(library.dropped_)}")
-        if n_params == 0:
-            warnings_.append(f"threshold {threshold:.3g} removed every term; F_m = 0")
-        doubt = [
-            f"{f.pretty} ({p:.2f})"
-            for f, p, k in zip(self.features_, self.inclusion_, keep, strict=True)
-            if DOUBT[0] <= p < DOUBT[1] and not k
-        ]
-        if doubt and self.intervals == "autocov":
-            warnings_.append(
-                f"support in doubt: {', '.join(doubt)} kept by {DOUBT[0]:g}-{DOUBT[1]:g} of the "
-                "bootstrap fits; the coefficient intervals are conditional on the selected "
-                "support and miss the truth where another support is the right one"
-            )
-        if self.acf_window_ is None:
-            warnings_.append(
-                f"the residual stays correlated beyond the lags examined (a tenth of the rows; "
-                f"correlation time >= {self.tau_int_:.0f} rows): the coefficient intervals are "
-                "likely too narrow; the library probably misses slow structure, or the log is "
-                "too short"
-            )
         self.summary_ = FitSummary(
             family=self.family,
             name=self.name,
@@ -316,8 +208,108 @@ class SINDyForceModel(ForceModel):
             # R's leading block has Z's singular values: no SVD of the whole design
             condition_number=float(np.linalg.cond(whole[: Z.shape[1], : Z.shape[1]])),
             condition_number_unscaled=None,
-            warnings=tuple(warnings_),
+            warnings=(*notes, *self._warnings(n_params)),
         )
+
+    def _sliding_rows(self, X: Mapping[str, np.ndarray], y: np.ndarray, blocks: np.ndarray):
+        """The rows with |v| >= stick_speed (step 1 of the module docstring), their blocks
+        renumbered (or equal row blocks where too few), and a note if so."""
+        source = f"{type(self).__name__}.fit"
+        if y.size < MIN_ROWS:
+            raise SignalError(
+                f"{source}: {y.size} rows cannot fit a sparse model; pass at least {MIN_ROWS}"
+            )
+        stick_speed = self.settings.stick_speed
+        sliding = np.abs(X["v"]) >= stick_speed
+        self.n_stuck_ = int((~sliding).sum())
+        if sliding.sum() < MIN_ROWS:
+            raise SignalError(
+                f"{source}: only {int(sliding.sum())} rows have |v| >= stick_speed="
+                f"{stick_speed} m/s; a fit needs at least {MIN_ROWS} sliding rows"
+            )
+        X = {k: np.asarray(v)[sliding] for k, v in X.items()}
+        y, blocks = y[sliding], np.unique(blocks[sliding], return_inverse=True)[1]
+        notes = []
+        if blocks.max() + 1 < MIN_BLOCKS:
+            notes.append(
+                f"the rows span only {blocks.max() + 1} blocks of {self.block_seconds:g} s: "
+                f"resampled as {MIN_ROWS} equal row blocks instead (too short for the bootstrap "
+                "to respect autocorrelation)"
+            )
+            blocks = (np.arange(y.size) * MIN_ROWS) // y.size
+        return X, y, blocks, notes
+
+    def _select(self, stats, keep: np.ndarray, alpha: float):
+        """The threshold (fixed or by CV), STLSQ at it, the bootstrap ensemble and the support
+        (steps 3-4): sets ``threshold_``, ``path_``, ``choice_``; returns the R factor of the
+        whole [Z | y], the normalised coefficients and the ensemble's."""
+        settings, cv = self.settings, self.settings.cv
+        folds = min(cv.folds, stats.n_blocks)
+        if settings.threshold == "cv":
+            path = threshold_path(stats, points=cv.points, folds=folds, rule=cv.rule, alpha=alpha,
+                                  keep=keep)  # fmt: skip
+            threshold = path.chosen
+        else:
+            path, threshold = None, float(settings.threshold)
+        whole = combine(stats, np.ones(stats.n_blocks))  # the R factor of [Z | y]
+        xi = stlsq(whole, threshold, alpha, keep=keep)
+        rng = np.random.default_rng(self.seed)
+        ensemble = bagging(stats, threshold, self.n_models, rng, alpha=alpha, keep=keep)
+        choice = None  # a fixed threshold, or support="threshold": STLSQ's support
+        if settings.support == "cv" and path is not None:
+            choice = support_choice(stats, folds, path, ensemble, cv.rule, alpha)
+            xi = xi if choice is None else refit(whole, choice.supports[choice.chosen], alpha)
+        self.threshold_ = threshold
+        self.path_: ThresholdPath | None = path
+        self.choice_ = choice
+        return whole, xi, ensemble
+
+    def _intervals(self, Z, z, xi, to_physical) -> None:
+        """The coefficients' intervals of the ``intervals`` method (step 5) and the residual's
+        correlation (reported for either method: a diagnostic of the fit)."""
+        post = support_intervals(Z, z, xi, self.confidence)
+        self.tau_int_, self.acf_window_ = post.tau_int, post.window
+        if self.intervals == "autocov":
+            scale = np.abs(to_physical)
+            self.std_err_ = post.std_err * scale
+            self.ci_ = np.sort(post.ci * to_physical[:, None], axis=1)
+            self.df_ = post.df
+        else:
+            self.std_err_, self.ci_ = percentile_intervals(self.ensemble_coef_, self.confidence)
+            self.df_ = None
+
+    def _warnings(self, n_params: int) -> list[str]:
+        """What the fit says about itself: rows left out, columns dropped, doubtful support,
+        a residual correlated beyond the lags examined."""
+        out = []
+        if self.n_stuck_:
+            out.append(
+                f"{self.n_stuck_} rows with |v| < {self.stick_speed} m/s (block stuck or about to: "
+                "static friction indeterminate, velocity sign unreliable) were left out of the fit"
+            )
+        if self.library_.dropped_:
+            out.append(f"duplicate library columns dropped: {', '.join(self.library_.dropped_)}")
+        if n_params == 0:
+            out.append(f"threshold {self.threshold_:.3g} removed every term; F_m = 0")
+        doubt = [
+            f"{f.pretty} ({p:.2f})"
+            for f, p, k in zip(self.features_, self.inclusion_, self.kept_, strict=True)
+            if DOUBT[0] <= p < DOUBT[1] and not k
+        ]
+        if doubt and self.intervals == "autocov":
+            out.append(
+                f"support in doubt: {', '.join(doubt)} kept by {DOUBT[0]:g}-{DOUBT[1]:g} of the "
+                "bootstrap fits; the coefficient intervals are conditional on the selected "
+                "support and miss the truth where another support is the right one"
+            )
+        if self.acf_window_ is None:
+            out.append(
+                f"the residual stays correlated beyond the lags examined (a tenth of the rows; "
+                f"correlation time >= {self.tau_int_:.0f} rows): the coefficient intervals are "
+                "likely too narrow; the library probably misses slow structure, or the log is "
+                "too short"
+            )
+        return out
 
     def _predict(self, X: Mapping[str, np.ndarray]) -> np.ndarray:
         scaled = self.coef_ / np.array([f.factor for f in self.features_])

@@ -19,9 +19,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from hmid.errors import ConfigError
 from hmid.models._intervals import autocov_covariance, residual_correlation
 from hmid.models.sls._data import SLSData
 from hmid.models.sls._sampler_result import SamplerResult
+from hmid.models.sls.terms import SLSForce
 from hmid.signal.maxwell import responses
 
 _H = 1e-3  # step in ln tau of the Jacobian's central difference
@@ -37,25 +39,27 @@ class Adjustment:
     widening: dict[str, float]
 
 
-def _jacobian(data: SLSData, beta: np.ndarray, log_tau: float, cubic: bool) -> np.ndarray:
+def _jacobian(data: SLSData, force: SLSForce, beta: np.ndarray, log_tau: float) -> np.ndarray:
     """d prediction / d (A_eff, F0, k1, [k3], k2, ln tau) on the used rows."""
-    x, P = np.asarray(data.x), np.asarray(data.P)
     taus = np.exp([log_tau - _H, log_tau, log_tau + _H])
     g = responses(data.t, data.x, data.start, taus, batch=4)
-    fixed = [P, np.ones_like(P), -x] + ([-np.asarray(data.x3)] if cubic else [])
+    fixed = force.fixed_columns(data.P, data.x, data.x3)
     d_tau = -beta[-1] * (g[:, 2] - g[:, 0]) / (2 * _H)
     return np.column_stack([*fixed, -g[:, 1], d_tau])[np.asarray(data.use)]
 
 
 def sandwich_adjust(
-    result: SamplerResult, data: SLSData, n_linear: int, cubic: bool
+    result: SamplerResult, data: SLSData, force: SLSForce
 ) -> tuple[SamplerResult, Adjustment]:
-    """``result``'s draws (coordinates: ``n_linear`` linear parameters, then ln tau) with the
-    sandwich covariance for the residual at their median; and what changed."""
+    """``result``'s draws (coordinates: the ``force``'s one arm's linear parameters, then ln
+    tau) with the sandwich covariance for the residual at their median; and what changed."""
+    if force.n_relaxation != 1:
+        raise ConfigError(f"sandwich_adjust: one Maxwell arm, not {force.n_relaxation}")
+    n_linear = force.n_linear
     k = n_linear + 1
     draws = result.chain[:, :k]
     centre = np.median(draws, axis=0)
-    jac = _jacobian(data, centre[:n_linear], float(centre[n_linear]), cubic)
+    jac = _jacobian(data, force, centre[:n_linear], float(centre[n_linear]))
     residual = np.asarray(data.F)[np.asarray(data.use)] - jac[:, :n_linear] @ centre[:n_linear]
     gamma, window, tau_int = residual_correlation(residual)
     lags = window if window is not None else gamma.size - 1

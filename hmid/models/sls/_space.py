@@ -29,15 +29,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from hmid.errors import ConfigError
+from hmid.models.sls.terms import SLSForce
 
 PRIOR_SD = 3.0  # e-folds, for every log-parameter
 F0_SD = 50.0  # N
 PHI_MAX = 0.99
 _CENTRES = {"A_eff": 2.0e-4, "k1": 3.0e3, "k3": 1.0e6, "k2": 1.0e3, "sigma": 0.05}
-_UNITS = {
-    "A_eff": "m²", "F0": "N", "k1": "N/m", "k3": "N/m³", "k2": "N/m", "tau": "s",
-    "sigma": "N", "phi": "1",
-}  # fmt: skip
+_NOISE_UNITS = {"sigma": "N", "phi": "1"}  # the force parameters' are in .terms
 
 
 class Mechanics(NamedTuple):
@@ -85,15 +83,19 @@ class SLSSpace:
         object.__setattr__(self, "arms", int(self.arms))
 
     # -- names ----------------------------------------------------------------------------------
+    @property
+    def force(self) -> SLSForce:
+        """The force's linear parameters and columns (:mod:`.terms`)."""
+        return SLSForce(self.spring, self.arms)
+
     def arm_names(self) -> list[tuple[str, str]]:
         """``(k2, tau)`` physical names of each arm: ``k2``/``tau`` or ``k2_i``/``tau_i``."""
-        if self.arms == 1:
-            return [("k2", "tau")]
-        return [(f"k2_{i}", f"tau_{i}") for i in range(1, self.arms + 1)]
+        return self.force.arm_names()
 
     @property
     def physical_names(self) -> tuple[str, ...]:
-        names = ["A_eff", "F0", "k1"] + (["k3"] if self.spring == "cubic" else [])
+        """The fixed linear parameters, each arm's (k2, tau), sigma and [phi]."""
+        names = [p.name for p in self.force.fixed]
         for k2, tau in self.arm_names():
             names += [k2, tau]
         return (*names, "sigma", *(("phi",) if self.noise == "ar1" else ()))
@@ -116,8 +118,9 @@ class SLSSpace:
     @property
     def units(self) -> tuple[str, ...]:
         """Units of :attr:`physical_names`, in the same order."""
-        return tuple(_UNITS[p.split("_")[0] if p.startswith(("k2_", "tau_")) else p]
-                     for p in self.physical_names)  # fmt: skip
+        units = {p.name: p.unit for p in self.force.linear} | _NOISE_UNITS
+        units |= {tau: "s" for _, tau in self.arm_names()}
+        return tuple(units[p] for p in self.physical_names)
 
     @property
     def dim(self) -> int:

@@ -1,7 +1,8 @@
 """The exact SLS posterior for one Maxwell arm: the parameters that enter linearly integrated out.
 
 Given the relaxation time tau (and, for AR(1) noise, phi) the force is linear in
-beta = (A_eff, F0, k1, [k3], k2): F = X(tau) beta + r. With a flat prior on beta and
+beta = (A_eff, F0, k1, [k3], k2): F = X(tau) beta + r, the columns of X those of
+:class:`~hmid.models.sls.terms.SLSForce`. With a flat prior on beta and
 p(sigma) ∝ 1/sigma, the marginal posterior of (tau, phi) is, up to a constant,
 
     p(tau, phi | F) ∝ p(tau) p(phi) (1 - phi²)^(n1/2) |X̃ᵀX̃|^(-1/2) S(tau, phi)^(-(n - p)/2)
@@ -62,10 +63,7 @@ class _Gram:
     """Gram matrices of Z = [fixed columns, -g_tau, F] / scale over the rows each term needs."""
 
     def __init__(self, space: SLSSpace, data: SLSData):
-        x, P = np.asarray(data.x), np.asarray(data.P)
-        fixed = [P, np.ones_like(P), -x] + (
-            [-np.asarray(data.x3)] if space.spring == "cubic" else []
-        )
+        fixed = space.force.fixed_columns(data.P, data.x, data.x3)
         self.use = np.asarray(data.use)
         self.start = np.asarray(data.start)
         y = np.asarray(data.F)
@@ -270,7 +268,7 @@ def exact_posterior(
     weight = np.exp(grid.log_density - grid.log_density.max()).ravel()
     cells = rng.choice(weight.size, size=draws, p=weight / weight.sum())
     it, iu = np.unravel_index(cells, grid.log_density.shape)
-    p = gram.p0 + 1  # linear parameters: A_eff, F0, k1, [k3], k2
+    p = space.force.n_linear  # A_eff, F0, k1, [k3], k2
     factor = chol[it, iu]  # (draws, p + 1, p + 1): A = L Lᵀ, its last row [b, s]
     upper = np.swapaxes(factor[:, :p, :p], 1, 2)
     beta_hat = np.linalg.solve(upper, factor[:, p, :p, None])[..., 0]

@@ -1,6 +1,7 @@
 """Mean force and log-likelihood of the SLS muscle model, for a batch of walkers.
 
-Mean force (a standard linear solid with a Prony series of m Maxwell arms):
+Mean force (a standard linear solid with a Prony series of m Maxwell arms, declared in
+:mod:`.terms`):
 
     F_m = A_eff P + F0 - (k1 x + k3 x³ + sum_i q_i),   dq_i/dt = -q_i / tau_i + k2_i dx/dt,
 
@@ -44,14 +45,6 @@ _LOG_2PI = math.log(2.0 * math.pi)
 CHUNK = 8192
 
 
-def _mean_force(space: SLSSpace, mech, x, x3, P, g: jax.Array) -> jax.Array:
-    """Force (rows, W) from x, x3 (the spring's cube, see SLSData), P (rows,) and the unit arm
-    responses g (rows, W, m)."""
-    q = jnp.einsum("nwm,wm->nw", g, mech.k2) if space.arms > 1 else g[..., 0] * mech.k2[:, 0]
-    spring = mech.k1 * x[:, None] + (mech.k3 * x3[:, None] if space.spring == "cubic" else 0.0)
-    return mech.A_eff * P[:, None] + mech.F0 - spring - q
-
-
 def _chunked(space: SLSSpace, theta: jax.Array, data: SLSData, step, init):
     """Walk the time axis in chunks of :data:`CHUNK` samples with the sequential scan.
 
@@ -70,7 +63,7 @@ def _chunked(space: SLSSpace, theta: jax.Array, data: SLSData, step, init):
         q, state = carry
         dt, v, x, x3, P, F, use, chain = rows
         g = scan_sequential(dt, v, mech.tau, q)  # padding: dt = 0, so a = b = 0
-        state, out = step(state, _mean_force(space, mech, x, x3, P, g), F, use, chain)
+        state, out = step(state, space.force.mean(mech, x, x3, P, g), F, use, chain)
         return (g[-1], state), out
 
     carry = (jnp.zeros_like(mech.tau), init)
@@ -88,7 +81,7 @@ def force(space: SLSSpace, theta: jax.Array, data: SLSData, scan: str = SCAN) ->
         return out.reshape(-1, theta.shape[0])[: data.t.shape[0]]
     mech = space.mechanics(theta)
     g = unit_response(data.t, data.x, data.start, mech.tau, scan)  # (n, W, m)
-    return _mean_force(space, mech, data.x, data.x3, data.P, g)
+    return space.force.mean(mech, data.x, data.x3, data.P, g)
 
 
 def chained(use: jax.Array, start: jax.Array) -> jax.Array:

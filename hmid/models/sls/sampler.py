@@ -190,104 +190,138 @@ def run_sampler(
         return _sample(target, theta0, radius, names, cfg, store, fresh)
 
 
+@dataclass
+class _Walk:
+    """Where a run stands: emcee's backend and last whole step (``state``, after ``it`` steps),
+    tau at the checks so far (``history``; ``tau`` the last, ``tau_ref`` the last at a multiple
+    of ``check_every``), why it stopped (None: it goes on) and the steps read back from a file."""
+
+    backend: emcee.backends.Backend
+    state: emcee.State
+    it: int
+    history: list[list[float]]
+    tau: np.ndarray | None = None
+    tau_ref: np.ndarray | None = None
+    stop: str | None = None
+    reused: int = 0
+
+
 def _sample(target, theta0, radius, names, cfg, store, fresh) -> SamplerResult:
-    n_walkers, dim = cfg.n_walkers, theta0.size
     checkpoint = None if store is None else store.prepare(fresh=fresh)
     backend = emcee.backends.Backend()
-    backend.reset(n_walkers, dim)
-    reused, replayed = 0, None
+    backend.reset(cfg.n_walkers, theta0.size)
     if checkpoint is None:
-        ball_seed, move_seed = np.random.SeedSequence(cfg.seed).spawn(2)
-        ball_rng = np.random.default_rng(ball_seed)
-        coords, logp = _initial_ball(target, theta0, radius, n_walkers, ball_rng, names)
-        random_state = np.random.RandomState(np.random.MT19937(move_seed)).get_state()
-        history: list[list[float]] = []
-        tau, tau_ref = None, None
-        if store is not None:
-            store.initialise()
+        walk = _fresh(backend, target, theta0, radius, names, cfg, store)
     else:
-        stored, stored_logp = store.read(checkpoint)
-        reused = len(stored)
-        _check_same_target(target, stored[-1], stored_logp[-1], store.path)
-        replayed = replay(stored, cfg)  # what a fresh run stops with, whatever the file holds
-        backend.chain, backend.log_prob = stored[: replayed.n], stored_logp[: replayed.n]
-        backend.iteration = replayed.n
-        if replayed.reason is None:  # sampling goes on: emcee's counts go on from the file's
-            backend.accepted = np.asarray(checkpoint["accepted"], dtype=float)
-        coords, logp = backend.chain[-1], backend.log_prob[-1]
-        random_state = _state_from_json(checkpoint["random_state"])
-        target.n_nan = checkpoint["n_nan"]
-        history, tau, tau_ref = replayed.history, replayed.tau, replayed.tau_ref
-    backend.random_state = random_state
-    sampler = emcee.EnsembleSampler(
-        n_walkers, dim, target, moves=cfg.emcee_moves(), backend=backend, vectorize=True
-    )
-    sampler.random_state = random_state  # emcee's setter fails silently: verify it took
-    if not np.array_equal(sampler.random_state[1], random_state[1]):
-        raise SamplerError("sampler: emcee did not accept the seeded random state")
-    state = emcee.State(coords, log_prob=logp, random_state=random_state)
-
+        walk = _resumed(backend, target, checkpoint, cfg, store)
+    sampler = _ensemble(walk, target, cfg)
     start = time.perf_counter()
-    it = backend.iteration
-    stop = None if replayed is None else replayed.reason
     bar = tqdm(
         total=cfg.max_steps,
-        initial=min(it, cfg.max_steps),
+        initial=min(walk.it, cfg.max_steps),
         disable=not cfg.progress,
         desc="MCMC",
         unit="step",
     )
     with bar:
-        while stop is None:
-            if it >= cfg.max_steps:
-                stop = "step budget"
+        while walk.stop is None:
+            if walk.it >= cfg.max_steps:
+                walk.stop = "step budget"
                 break
             if time.perf_counter() - start >= cfg.max_seconds:
-                stop = "time budget"
+                walk.stop = "time budget"
                 break
-            saved, n_nan, accepted = it, target.n_nan, backend.accepted.copy()
-            end = min(cfg.max_steps, (it // cfg.check_every + 1) * cfg.check_every)
-            steps = sampler.sample(state, iterations=end - it, skip_initial_state_check=True)
-            try:
-                for new_state in steps:
-                    target.reraise()  # a step that saw an error or Ctrl-C is not kept
-                    # emcee updates its state in place: keep a copy of the last whole step
-                    state = emcee.State(new_state, copy=True)
-                    it, n_nan, accepted = it + 1, target.n_nan, backend.accepted.copy()
-                    bar.update(1)
-                    if time.perf_counter() - start >= cfg.max_seconds:
-                        break
-                target.reraise()
-            except BaseException as err:  # keep the steps done; the last kept state is consistent
-                if store is not None and it > saved:
-                    store.save(backend, state, saved, it, n_nan, history, accepted)
-                if isinstance(err, KeyboardInterrupt):
-                    raise SamplingInterrupted(it, None if store is None else store.path) from None
-                raise
-            if it not in (end, cfg.max_steps):  # stopped by the time budget between checks
-                if store is not None:
-                    store.save(backend, state, saved, it, n_nan, history, accepted)
-                continue
-            tau_prior, tau = tau_ref, tau_of(backend.get_chain())
-            if it % cfg.check_every == 0:
-                tau_ref = tau
-            history.append([it, *tau])
-            bar.set_postfix(tau_max=f"{tau.max():.1f}")
-            if store is not None:
-                store.save(backend, state, saved, it, target.n_nan, history, accepted)
-            if converged(tau, tau_prior, it, cfg):
-                stop = "converged"
+            _to_next_check(sampler, walk, target, cfg, store, bar, start)
     return _result(
-        backend,
-        tau,
-        history,
+        walk.backend,
+        walk.tau,
+        walk.history,
         names,
-        stop,
+        walk.stop,
         time.perf_counter() - start,
         store,
         target.n_nan,
-        min(reused, backend.iteration),
+        min(walk.reused, walk.backend.iteration),
     )
+
+
+def _fresh(backend, target, theta0, radius, names, cfg, store) -> _Walk:
+    """A new chain: the seeded initial ball and the moves' seeded random state."""
+    ball_seed, move_seed = np.random.SeedSequence(cfg.seed).spawn(2)
+    ball_rng = np.random.default_rng(ball_seed)
+    coords, logp = _initial_ball(target, theta0, radius, cfg.n_walkers, ball_rng, names)
+    random_state = np.random.RandomState(np.random.MT19937(move_seed)).get_state()
+    if store is not None:
+        store.initialise()
+    state = emcee.State(coords, log_prob=logp, random_state=random_state)
+    return _Walk(backend, state, it=backend.iteration, history=[])
+
+
+def _resumed(backend, target, checkpoint, cfg, store) -> _Walk:
+    """The stored chain, replayed through the convergence rule: a fresh run's numbers."""
+    stored, stored_logp = store.read(checkpoint)
+    _check_same_target(target, stored[-1], stored_logp[-1], store.path)
+    replayed = replay(stored, cfg)  # what a fresh run stops with, whatever the file holds
+    backend.chain, backend.log_prob = stored[: replayed.n], stored_logp[: replayed.n]
+    backend.iteration = replayed.n
+    if replayed.reason is None:  # sampling goes on: emcee's counts go on from the file's
+        backend.accepted = np.asarray(checkpoint["accepted"], dtype=float)
+    random_state = _state_from_json(checkpoint["random_state"])
+    target.n_nan = checkpoint["n_nan"]
+    state = emcee.State(backend.chain[-1], log_prob=backend.log_prob[-1], random_state=random_state)
+    return _Walk(backend, state, backend.iteration, replayed.history, replayed.tau,
+                 replayed.tau_ref, replayed.reason, len(stored))  # fmt: skip
+
+
+def _ensemble(walk: _Walk, target, cfg) -> emcee.EnsembleSampler:
+    """emcee's sampler on ``walk``'s backend, with the walk's random state (verified)."""
+    random_state = walk.state.random_state
+    walk.backend.random_state = random_state
+    dim = walk.state.coords.shape[1]
+    sampler = emcee.EnsembleSampler(
+        cfg.n_walkers, dim, target, moves=cfg.emcee_moves(), backend=walk.backend, vectorize=True
+    )
+    sampler.random_state = random_state  # emcee's setter fails silently: verify it took
+    if not np.array_equal(sampler.random_state[1], random_state[1]):
+        raise SamplerError("sampler: emcee did not accept the seeded random state")
+    return sampler
+
+
+def _to_next_check(sampler, walk: _Walk, target, cfg, store, bar, start: float) -> None:
+    """Sample up to the next check (or the time budget), keeping the steps done on an error or
+    Ctrl-C; at a check, tau and the convergence rule."""
+    saved, n_nan, accepted = walk.it, target.n_nan, walk.backend.accepted.copy()
+    end = min(cfg.max_steps, (walk.it // cfg.check_every + 1) * cfg.check_every)
+    steps = sampler.sample(walk.state, iterations=end - walk.it, skip_initial_state_check=True)
+    try:
+        for new_state in steps:
+            target.reraise()  # a step that saw an error or Ctrl-C is not kept
+            # emcee updates its state in place: keep a copy of the last whole step
+            walk.state = emcee.State(new_state, copy=True)
+            walk.it, n_nan, accepted = walk.it + 1, target.n_nan, walk.backend.accepted.copy()
+            bar.update(1)
+            if time.perf_counter() - start >= cfg.max_seconds:
+                break
+        target.reraise()
+    except BaseException as err:  # keep the steps done; the last kept state is consistent
+        if store is not None and walk.it > saved:
+            store.save(walk.backend, walk.state, saved, walk.it, n_nan, walk.history, accepted)
+        if isinstance(err, KeyboardInterrupt):
+            raise SamplingInterrupted(walk.it, None if store is None else store.path) from None
+        raise
+    if walk.it not in (end, cfg.max_steps):  # stopped by the time budget between checks
+        if store is not None:
+            store.save(walk.backend, walk.state, saved, walk.it, n_nan, walk.history, accepted)
+        return
+    tau_prior, walk.tau = walk.tau_ref, tau_of(walk.backend.get_chain())
+    if walk.it % cfg.check_every == 0:
+        walk.tau_ref = walk.tau
+    walk.history.append([walk.it, *walk.tau])
+    bar.set_postfix(tau_max=f"{walk.tau.max():.1f}")
+    if store is not None:
+        store.save(walk.backend, walk.state, saved, walk.it, target.n_nan, walk.history, accepted)
+    if converged(walk.tau, tau_prior, walk.it, cfg):
+        walk.stop = "converged"
 
 
 def _initial_ball(target, theta0, radius, n_walkers, rng, names):

@@ -5,7 +5,7 @@ For fixed relaxation times the mean force is *linear* in the other parameters,
     F = A_eff P + F0 - k1 x - k3 x³ - sum_i k2_i g_{tau_i}(x),
 
 where g_tau is the arm force per unit k2 (:mod:`hmid.signal.maxwell`); the design is the SLS's
-terms (:func:`.terms.sls_terms`), the one place it is written. :func:`initial_fit` therefore
+terms (:class:`.terms.SLSForce`), the one place it is written. :func:`initial_fit` therefore
 
 1. evaluates g_tau on a log-spaced grid (1 ms to 10 s, 40 points by default) and, for every grid
    point (every increasing m-tuple of a thinned grid for m arms), solves the linear least squares
@@ -44,7 +44,6 @@ from hmid.models.sls import likelihood as _lik
 from hmid.models.sls._data import SLSData
 from hmid.models.sls._space import PRIOR_SD, SLSSpace
 from hmid.models.sls.model import SLSModel
-from hmid.models.sls.terms import sls_terms
 
 MAX_TUPLES = 2000  # grid tuples examined for several arms (the grid is thinned to stay below)
 PHI_START_MAX = 0.95
@@ -85,7 +84,7 @@ def _tau_tuples(grid: np.ndarray, arms: int) -> np.ndarray:
 
 
 def _design(space: SLSSpace, data: SLSData, grid: np.ndarray):
-    """The SLS's terms (:func:`.terms.sls_terms`) on ``data``: the columns of those without a
+    """The SLS's terms (:meth:`.terms.SLSForce.terms`) on ``data``: the columns of those without a
     relaxation time, their names, and an arm's column (its sign built in) for every tau."""
     import pandas as pd
 
@@ -97,7 +96,7 @@ def _design(space: SLSSpace, data: SLSData, grid: np.ndarray):
                           "x": np.asarray(data.x), "P": np.asarray(data.P),
                           "target": np.asarray(data.F), "train": np.asarray(data.use)})  # fmt: skip
     signals = Signals.from_frame(frame, {"x": "m", "P": "Pa", "target": "N"}, position="x")
-    terms = sls_terms(space.spring, space.arms)
+    terms = space.force.terms()
     linear = Structure.of([t for t in terms if t.hyper is None]).columns(signals)
     values, names = np.array(linear.values), list(linear.names)
     if "k3" in names:  # the data's cube (smoothed where x is), as the likelihood reads it

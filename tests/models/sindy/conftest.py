@@ -43,9 +43,9 @@ def true_friction() -> FrictionEstimate:
 @pytest.fixture(scope="session")
 def truth_fits(truth):
     """keep=() (no term spared the threshold), seeds 0, 1, 2 for noise and ensemble."""
-    from hmid.models.sindy import SINDyForceModel
+    from hmid.models.sindy import SINDyForceModel, SINDySettings
 
     return {
-        seed: SINDyForceModel(keep=(), seed=seed).fit(*training_rows(truth, seed))
+        seed: SINDyForceModel(SINDySettings(keep=()), seed=seed).fit(*training_rows(truth, seed))
         for seed in (0, 1, 2)
     }

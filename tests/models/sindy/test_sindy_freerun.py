@@ -13,8 +13,8 @@ from _sindy_truth import SPLIT_T, sequences
 from hmid.errors import ConfigError
 from hmid.models.sindy import (
     EquationOfMotion,
-    FeatureLibrary,
     ForceMap,
+    SINDySettings,
     free_run,
     held_out_blocks,
     simulate,
@@ -43,7 +43,9 @@ def test_free_run_tracks_the_measured_x_on_held_out_truth(fitted, truth, ch4_rig
 
 def _unstable_eom(rig, true_friction) -> EquationOfMotion:
     """F_m = m1 g + 1e7 N/m (x - 7 mm): a huge *positive* stiffness, x runs away exponentially."""
-    library = FeatureLibrary(("x",), degree=1, friction_term=False)
+    library = SINDySettings(
+        variables=("x",), degree=1, max_degree={}, friction_terms=False, keep=()
+    ).library()
     library.fit({"x": np.array([0.0, 0.01])})
     weight = rig.motion.offset
     force = ForceMap(library.features_, np.array([weight - 1e7 * 0.007, 1e7]), v0=1e-3)

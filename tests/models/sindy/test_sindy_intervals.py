@@ -16,10 +16,9 @@ from _sindy_truth import training_rows as _train
 from pydantic import ValidationError
 from scipy.signal import lfilter
 
-from hmid.errors import ConfigError
 from hmid.families.sindy import SINDySpec
 from hmid.models._intervals import autocov_covariance, residual_correlation
-from hmid.models.sindy import SINDyForceModel
+from hmid.models.sindy import SINDyForceModel, SINDySettings
 from hmid.models.sindy._intervals import percentile_intervals
 
 Z95 = 1.959964
@@ -67,7 +66,9 @@ def test_default_intervals_are_calibrated_on_ar1_noise_where_bootstrap_ones_are_
     for rep in range(30):
         rng = np.random.default_rng(np.random.SeedSequence(2026, spawn_key=(rep,)))
         y = clean + _ar1(0.9, 0.01, len(truth), rng)[index]
-        model = SINDyForceModel(keep=(), seed=rep, path_points=15).fit(rows[COLUMNS], y)
+        model = SINDyForceModel(SINDySettings(keep=(), cv={"points": 15}), seed=rep).fit(
+            rows[COLUMNS], y
+        )
         terms = [[f.name for f in model.features_].index(k) for k in names]
         support.append(set(model.selected) == set(TRUE))
         intervals["default"].append(model.ci_[terms])
@@ -75,7 +76,7 @@ def test_default_intervals_are_calibrated_on_ar1_noise_where_bootstrap_ones_are_
     support = np.array(support)
     assert support.mean() >= 0.8
     used = np.zeros(len(truth), bool)
-    used[index] = np.abs(rows["v"].to_numpy()) >= SINDyForceModel().stick_speed
+    used[index] = np.abs(rows["v"].to_numpy()) >= SINDySettings().stick_speed
     needed = _needed(truth, used, 0.9, 0.01)
     verdict = {}
     for method, found in intervals.items():
@@ -89,7 +90,7 @@ def test_default_intervals_are_calibrated_on_ar1_noise_where_bootstrap_ones_are_
 def test_default_interval_is_the_ols_refit_with_the_residual_autocovariance(truth):
     X, y = _train(truth, seed=6)
     X, y = X.iloc[::3], y[::3]
-    model = SINDyForceModel(keep=(), seed=6, n_models=10).fit(X, y)
+    model = SINDyForceModel(SINDySettings(keep=(), ensemble={"models": 10}), seed=6).fit(X, y)
     on = model.coef_ != 0
     cols = {k: X[k].to_numpy() for k in ("x", "v", "P")}
     cols = {k: v[np.abs(cols["v"]) >= model.stick_speed] for k, v in cols.items()}
@@ -115,8 +116,10 @@ def test_default_interval_is_the_ols_refit_with_the_residual_autocovariance(trut
 def test_bootstrap_option_gives_the_ensembles_percentile_intervals(truth):
     X, y = _train(truth, seed=7)
     X, y = X.iloc[::3], y[::3]
-    default = SINDyForceModel(keep=(), seed=7, n_models=10).fit(X, y)
-    boot = SINDyForceModel(keep=(), seed=7, n_models=10, intervals="bootstrap").fit(X, y)
+    default = SINDyForceModel(SINDySettings(keep=(), ensemble={"models": 10}), seed=7).fit(X, y)
+    boot = SINDyForceModel(
+        SINDySettings(keep=(), ensemble={"models": 10}, intervals="bootstrap"), seed=7
+    ).fit(X, y)
     np.testing.assert_array_equal(default.coef_, boot.coef_)  # only the intervals differ
     np.testing.assert_array_equal(default.inclusion_, boot.inclusion_)
     low, high = np.quantile(boot.ensemble_coef_, [0.025, 0.975], axis=0)
@@ -126,8 +129,8 @@ def test_bootstrap_option_gives_the_ensembles_percentile_intervals(truth):
 
 
 def test_interval_method_errors_are_named():
-    with pytest.raises(ConfigError, match="intervals must be one of autocov, bootstrap"):
-        SINDyForceModel(intervals="hac")
+    with pytest.raises(ValidationError, match="Input should be 'autocov' or 'bootstrap'"):
+        SINDySettings(intervals="hac")
     with pytest.raises(ValidationError, match="intervals"):
         SINDySpec(intervals="hac")
     assert SINDySpec().intervals == "autocov"

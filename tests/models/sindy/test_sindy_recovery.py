@@ -22,10 +22,11 @@ import pandas as pd
 import pytest
 from _sindy_truth import COLUMNS, RIG, SPLIT_T, TRUE
 from _sindy_truth import training_rows as _train
+from pydantic import ValidationError
 
-from hmid.errors import ConfigError, SignalError
+from hmid.errors import SignalError
 from hmid.models import NotFittedError
-from hmid.models.sindy import SINDyForceModel
+from hmid.models.sindy import SINDyForceModel, SINDySettings
 
 
 def _by_name(model: SINDyForceModel) -> pd.DataFrame:
@@ -97,7 +98,7 @@ def test_stuck_rows_are_left_out_and_do_not_pull_in_terms(truth):
             stuck[COLUMNS].assign(v=0.0, F=stuck["F_true"] + rng.uniform(-0.5, 0.5, len(stuck))),
         ]
     ).sort_values("t")
-    model = SINDyForceModel(keep=(), seed=3).fit(rows[COLUMNS], rows["F"].to_numpy())
+    model = SINDyForceModel(SINDySettings(keep=()), seed=3).fit(rows[COLUMNS], rows["F"].to_numpy())
     assert model.n_stuck_ >= len(stuck)
     assert set(model.selected) == set(TRUE)
     assert any("left out" in w for w in model.summary_.warnings)
@@ -107,11 +108,11 @@ def test_global_numpy_rng_is_untouched_and_fits_reproduce_from_the_seed(truth):
     X, y = _train(truth, seed=4)
     X, y = X.iloc[::4], y[::4]
     before = np.random.get_state()  # noqa: NPY002
-    a = SINDyForceModel(keep=(), seed=11, n_models=20).fit(X, y)
+    a = SINDyForceModel(SINDySettings(keep=(), ensemble={"models": 20}), seed=11).fit(X, y)
     after = np.random.get_state()  # noqa: NPY002
     assert before[0] == after[0] and np.array_equal(before[1], after[1]) and before[2] == after[2]
-    b = SINDyForceModel(keep=(), seed=11, n_models=20).fit(X, y)
-    c = SINDyForceModel(keep=(), seed=12, n_models=20).fit(X, y)
+    b = SINDyForceModel(SINDySettings(keep=(), ensemble={"models": 20}), seed=11).fit(X, y)
+    c = SINDyForceModel(SINDySettings(keep=(), ensemble={"models": 20}), seed=12).fit(X, y)
     np.testing.assert_array_equal(a.ensemble_coef_, b.ensemble_coef_)
     assert not np.array_equal(a.ensemble_coef_, c.ensemble_coef_)
 
@@ -119,7 +120,9 @@ def test_global_numpy_rng_is_untouched_and_fits_reproduce_from_the_seed(truth):
 def test_keep_spares_terms_from_the_threshold(truth):
     X, y = _train(truth, seed=5)
     X, y = X.iloc[::4], y[::4]
-    model = SINDyForceModel(keep=("v", "x*P"), threshold=0.05, n_models=10).fit(X, y)
+    model = SINDyForceModel(
+        SINDySettings(keep=("v", "x*P"), threshold=0.05, ensemble={"models": 10})
+    ).fit(X, y)
     assert {"v", "x*P"} <= set(model.selected)
     assert model.inclusion_[[f.name in ("v", "x*P") for f in model.features_]].min() == 1.0
 
@@ -158,7 +161,9 @@ def test_recovery_on_quantised_noisy_logs_with_default_denoising(seed, ch4_rig):
     x and P within 1 %, x³ within 5 %. The weaker part: spurious terms reach inclusion ~0.3 (the
     {x², x·P, x²·P} alternative), so the bound here is 0.5, not the 0.2 of noise-free data."""
     frame = _sensor_chain(seed, ch4_rig)
-    model = SINDyForceModel(keep=(), seed=seed).fit(frame[COLUMNS], frame["F_m"].to_numpy())
+    model = SINDyForceModel(SINDySettings(keep=()), seed=seed).fit(
+        frame[COLUMNS], frame["F_m"].to_numpy()
+    )
     assert set(model.selected) == set(TRUE)
     table = _by_name(model)
     assert table.loc["x", "value"] == pytest.approx(TRUE["x"], rel=0.01)
@@ -169,10 +174,10 @@ def test_recovery_on_quantised_noisy_logs_with_default_denoising(seed, ch4_rig):
 
 # -- errors --------------------------------------------------------------------------------------
 def test_errors_are_named():
-    with pytest.raises(ConfigError, match="keep names 'x\\^5'"):
-        SINDyForceModel(keep=("x^5",))
-    with pytest.raises(ConfigError, match="threshold must be 'cv'"):
-        SINDyForceModel(threshold="aic")
+    with pytest.raises(ValidationError, match="keep names \\['x\\^5'\\]"):
+        SINDySettings(keep=("x^5",))
+    with pytest.raises(ValidationError, match="must be 'cv'"):
+        SINDySettings(threshold="aic")
     with pytest.raises(NotFittedError):
         SINDyForceModel().predict(pd.DataFrame({"x": [0.0], "v": [0.0], "P": [0.0]}))
     few = pd.DataFrame({"x": [0.01] * 10, "v": [0.05] * 10, "P": [1e5] * 10})

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from _sindy_truth import COLUMNS, SPLIT_T, TRUE
+from pydantic import ValidationError
 from test_sindy_intervals import _ar1
 
-from hmid.errors import ConfigError
-from hmid.models.sindy import SINDyForceModel
+from hmid.models.sindy import SINDyForceModel, SINDySettings
 from hmid.models.sindy._select import candidates, choose_support, refit
 from hmid.models.sindy._sparse import block_stats, combine
 
@@ -62,7 +62,9 @@ def test_the_true_support_is_found_where_the_threshold_path_misses_it(truth):
     for rep in range(16):
         rng = np.random.default_rng(np.random.SeedSequence(2026, spawn_key=(rep,)))
         y = clean + _ar1(0.97, 0.04, len(truth), rng)[index]
-        model = SINDyForceModel(keep=(), seed=rep, path_points=15).fit(rows[COLUMNS], y)
+        model = SINDyForceModel(SINDySettings(keep=(), cv={"points": 15}), seed=rep).fit(
+            rows[COLUMNS], y
+        )
         names = np.array([f.name for f in model.features_])
         path = model.path_
         on_path = path.supports[np.searchsorted(path.thresholds, path.plateau[0])]
@@ -78,16 +80,20 @@ def test_support_threshold_keeps_stlsqs_own_support(truth):
 
     X, y = training_rows(truth, seed=5)
     X, y = X.iloc[::3], y[::3]
-    model = SINDyForceModel(keep=(), seed=5, n_models=10, support="threshold").fit(X, y)
+    model = SINDyForceModel(
+        SINDySettings(keep=(), ensemble={"models": 10}, support="threshold"), seed=5
+    ).fit(X, y)
     path = model.path_
     on_path = path.supports[np.searchsorted(path.thresholds, path.plateau[0])]
     assert model.choice_ is None
     np.testing.assert_array_equal(model.coef_ != 0, on_path)
-    fixed = SINDyForceModel(keep=(), seed=5, n_models=10, threshold=model.threshold_).fit(X, y)
+    fixed = SINDyForceModel(
+        SINDySettings(keep=(), ensemble={"models": 10}, threshold=model.threshold_), seed=5
+    ).fit(X, y)
     assert fixed.choice_ is None  # a fixed threshold fixes STLSQ's support
     np.testing.assert_array_equal(fixed.coef_, model.coef_)
 
 
 def test_unknown_support_rule_is_named():
-    with pytest.raises(ConfigError, match="support must be one of cv, threshold"):
-        SINDyForceModel(support="bic")
+    with pytest.raises(ValidationError, match="support\n  Input should be 'cv' or 'threshold'"):
+        SINDySettings(support="bic")

@@ -6,6 +6,7 @@ import numpy as np
 from test_sls_collapsed import TRUTH, _data, _exact, _physical
 
 from hmid.models.sls._sandwich import sandwich_adjust
+from hmid.models.sls.terms import SLSForce
 
 LINEAR = ("A_eff", "F0", "k1", "k3", "k2", "tau")
 
@@ -13,7 +14,7 @@ LINEAR = ("A_eff", "F0", "k1", "k3", "k2", "tau")
 def test_a_white_residual_leaves_the_posterior_as_it_is():
     data = _data(11, 6000)
     _, result, _ = _exact(data)
-    adjusted, info = sandwich_adjust(result, data, 5, cubic=True)
+    adjusted, info = sandwich_adjust(result, data, SLSForce("cubic", 1))
     assert info.tau_int < 1.5
     assert all(1.0 <= w < 1.1 for w in info.widening.values()), info.widening
     np.testing.assert_allclose(np.median(adjusted.chain, 0), np.median(result.chain, 0),
@@ -27,7 +28,7 @@ def test_an_ar1_residual_under_an_iid_likelihood_is_widened_until_it_covers():
     for seed in range(20, 32):
         data = _data(seed, 5000, "ar1")
         space, result, _ = _exact(data, seed=seed)
-        adjusted, info = sandwich_adjust(result, data, 5, cubic=True)
+        adjusted, info = sandwich_adjust(result, data, SLSForce("cubic", 1))
         widening.append(list(info.widening.values()))
         for chain, out in ((result.chain, raw_hits), (adjusted.chain, hits)):
             draws = _physical(space, chain)
