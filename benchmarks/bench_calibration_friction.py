@@ -28,7 +28,7 @@ spawn_key=(300 + c, r, j))``; the simulator takes its first 32-bit word as the l
   internal filtering would make it. The simulator draws white sensor noise only, so this noise
   (``_calibration.noise``) is added to the simulated true position and quantised by the
   simulator's own ADC (``hmid.simulate.sensors``): AR(1) plus white quantisation, the errors
-  that the AR(1)-plus-white covariance (``hmid/models/_ar_white.py``) models;
+  that the AR(1)-plus-white covariance (``hmid/stats/_ar_white.py``) models;
 * ``coulomb_viscous`` on Coulomb falls (b = 0) and on falls with viscous friction b = 5 N s/m.
 
 Reported: the empirical coverage of the intervals (nominal ``friction.confidence``, 95 %) with its

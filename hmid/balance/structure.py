@@ -17,8 +17,8 @@ import numpy as np
 import pandas as pd
 
 from hmid.balance.columns import Columns, LeastSquares, Plan, plan
+from hmid.balance.inference import inference
 from hmid.balance.signals import Signals, recording
-from hmid.balance.statistics import inference
 from hmid.balance.terms import Term
 from hmid.metrics import Scores, score
 
@@ -268,7 +268,7 @@ def _sensitivity(fitted: StructureFit, index: int, signals: Signals) -> np.ndarr
 
 def parameters(fitted: StructureFit, signals: Signals, confidence: float) -> pd.DataFrame:
     """The fitted parameters with intervals (for errors correlated as the residual is, see
-    :func:`~hmid.balance.statistics.inference`), profiled ones
+    :func:`~hmid.balance.inference.inference`), profiled ones
     included: their sensitivity columns enter the covariance (Gauss-Newton), so the linear
     parameters that trade off against them get honest intervals. Columns: parameter, value,
     std. error, lower, upper, unit, positive."""

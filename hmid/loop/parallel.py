@@ -22,7 +22,7 @@ from hmid.balance import fit as fit_structure
 from hmid.balance.structure import Placed
 from hmid.loop.candidates import Candidate
 from hmid.loop.screen import Screen, screen
-from hmid.loop.statistics import NestedTest
+from hmid.stats import NestedTest
 
 #: in a worker: the round it screens (its file's path and what the file holds)
 _ROUND: dict[str, tuple] = {}

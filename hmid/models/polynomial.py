@@ -51,12 +51,6 @@ import pandas as pd
 from hmid.errors import ConfigError, SignalError
 from hmid.intervals import IntervalNote
 from hmid.models._design import row_design
-from hmid.models._intervals import (
-    autocov_covariance,
-    hac_covariance,
-    hac_lags,
-    residual_correlation,
-)
 from hmid.models._lstsq import RowBlocks, tall_lstsq
 from hmid.models.base import (
     Coefficient,
@@ -74,6 +68,7 @@ from hmid.models.terms import (
     variable_order,
     variable_unit,
 )
+from hmid.stats import autocov_covariance, hac_covariance, hac_lags, residual_correlation
 
 __all__ = [
     "CONDITION_LIMIT",

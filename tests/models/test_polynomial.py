@@ -383,7 +383,7 @@ def test_a_correlation_as_long_as_the_log_is_a_warning() -> None:
 def test_the_residual_autocovariance_is_statsmodels_acovf() -> None:
     from statsmodels.tsa.stattools import acovf
 
-    from hmid.models._intervals import residual_correlation
+    from hmid.stats import residual_correlation
 
     for n in (2, 9, 1000, 20_001):
         residual = _ar1(0.9, 1.0, n, np.random.default_rng(n))

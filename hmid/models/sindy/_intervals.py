@@ -2,7 +2,7 @@
 
 ``"autocov"`` (default): STLSQ ends with an unbiasing refit, so the selected terms' coefficients
 *are* the OLS ones on the selected columns alone; their intervals are the polynomial family's
-(:mod:`hmid.models._intervals`): the OLS sandwich with the residual's Toeplitz autocovariance up
+(:mod:`hmid.stats`): the OLS sandwich with the residual's Toeplitz autocovariance up
 to Sokal's window, t intervals on ``min(n - p, n / (2 M + 1))`` degrees of freedom. They are
 **conditional on the selected support**: they say how well the data pin down the coefficients of
 this model, not whether another support would have been chosen from another noise draw (the
@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hmid.intervals import IntervalNote
-from hmid.models._intervals import autocov_covariance, residual_correlation
+from hmid.stats import autocov_covariance, residual_correlation
 
 #: Interval methods, the default first.
 INTERVALS = ("autocov", "bootstrap")

@@ -18,9 +18,9 @@ from scipy.signal import lfilter
 
 from hmid.errors import ConfigError
 from hmid.families.sindy import SINDySpec
-from hmid.models._intervals import autocov_covariance, residual_correlation
 from hmid.models.sindy import SINDyForceModel
 from hmid.models.sindy._intervals import percentile_intervals
+from hmid.stats import autocov_covariance, residual_correlation
 
 Z95 = 1.959964
 
