@@ -38,8 +38,8 @@ position for the per-log rows). Per case (on its ``pooled`` rows): how often the
 rejected the fitted law (level 0.01) and how often Cochran's Q p < 0.05 (both false alarms here),
 and the x residuals' median Durbin-Watson statistic and correlation time (τ_int in samples, as
 the fit measures it: the friction table's calibration status compares a fall's with the phi 0.9
-case's, ``hmid.friction._models.CALIBRATED_TAU``). Target (issue 15 "Intervals that mean what
-they say"): nominal ± 3 points, 0.92-0.98 at 95 %.
+case's, ``hmid.friction._models.FRICTION_CALIBRATED_TAU``). Target (issue 15 "Intervals that
+mean what they say"): nominal ± 3 points, 0.92-0.98 at 95 %.
 """
 
 from __future__ import annotations

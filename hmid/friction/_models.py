@@ -39,7 +39,7 @@ if TYPE_CHECKING:
 #: The longest residual correlation time (samples, as :func:`correlated_covariance` measures
 #: it) at which benchmarks/bench_calibration_friction.py met the band: the median over the
 #: falls of its AR(1) phi = 0.97 case, 29.5 (phi 0.5: 2.6; phi 0.9: 13.5).
-CALIBRATED_TAU = 29.0
+FRICTION_CALIBRATED_TAU = 29.0
 
 
 @dataclass(frozen=True)

@@ -22,8 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hmid.balance import Signals, StructureFit, descend, parameters, profile, refine
-from hmid.balance import fit as fit_structure
+from hmid.balance import Signals, StructureFit, descend, fit_structure, parameters, profile, refine
 from hmid.loop.candidates import Candidate
 from hmid.stats import NestedTest, profile_interval, residual_tau_int
 
