@@ -10,7 +10,7 @@ The columns are those the loop fits: a constant, x, x³, P, v (viscous) and the 
 one model per row (white, AR(1) phi 0.5 / 0.9 / 0.97, white sensor noise through the pipeline's
 smoother; see ``_calibration``). Side by side on the same fits:
 
-* ``autocov`` (default, :func:`hmid.balance.statistics.inference`): the sandwich with the
+* ``autocov`` (default, :func:`hmid.balance.inference.inference`): the sandwich with the
   residual's autocovariance up to Sokal's window, lag products within segments, t on
   n / (2 M + 1) df;
 * ``n/tau_int``: the method used before, OLS errors inflated by sqrt(tau_int), t on n/tau - p df.
@@ -29,9 +29,10 @@ import pandas as pd
 from _calibration import CONFIDENCE, ENTROPY, SIGMA, SIGMA_SENSOR, noise, trajectory
 from scipy import stats
 
-from hmid.balance import Signals, inference, residual_tau_int
+from hmid.balance import Signals, inference
 from hmid.balance.columns import Columns
 from hmid.report.markdown import markdown_table
+from hmid.stats import residual_tau_int
 
 CASES = (("white", "white"), ("AR(1) φ = 0.5", 0.5), ("AR(1) φ = 0.9", 0.9),
          ("AR(1) φ = 0.97", 0.97), ("smoothed", "smoothed"))  # fmt: skip

@@ -28,7 +28,7 @@ spawn_key=(300 + c, r, j))``; the simulator takes its first 32-bit word as the l
   internal filtering would make it. The simulator draws white sensor noise only, so this noise
   (``_calibration.noise``) is added to the simulated true position and quantised by the
   simulator's own ADC (``hmid.simulate.sensors``): AR(1) plus white quantisation, the errors
-  that the AR(1)-plus-white covariance (``hmid/models/_ar_white.py``) models;
+  that the AR(1)-plus-white covariance (``hmid/stats/_ar_white.py``) models;
 * ``coulomb_viscous`` on Coulomb falls (b = 0) and on falls with viscous friction b = 5 N s/m.
 
 Reported: the empirical coverage of the intervals (nominal ``friction.confidence``, 95 %) with its
@@ -38,8 +38,8 @@ position for the per-log rows). Per case (on its ``pooled`` rows): how often the
 rejected the fitted law (level 0.01) and how often Cochran's Q p < 0.05 (both false alarms here),
 and the x residuals' median Durbin-Watson statistic and correlation time (τ_int in samples, as
 the fit measures it: the friction table's calibration status compares a fall's with the phi 0.9
-case's, ``hmid.friction._models.CALIBRATED_TAU``). Target (issue 15 "Intervals that mean what
-they say"): nominal ± 3 points, 0.92-0.98 at 95 %.
+case's, ``hmid.friction._models.FRICTION_CALIBRATED_TAU``). Target (issue 15 "Intervals that
+mean what they say"): nominal ± 3 points, 0.92-0.98 at 95 %.
 """
 
 from __future__ import annotations

@@ -13,16 +13,16 @@
 
 from hmid.balance.checks import SignFinding, sign_findings
 from hmid.balance.columns import Column, Columns, LeastSquares
+from hmid.balance.inference import inference
 from hmid.balance.kinds import TERM_KINDS, Grid, ModelSlot, TermSpec, make_term
 from hmid.balance.rig import Explained, FreeFall, Motion, RigSection
 from hmid.balance.signals import Signals, raw
-from hmid.balance.statistics import inference, integrated_time, residual_tau_int
 from hmid.balance.structure import (
     Placed,
     Structure,
     StructureFit,
     descend,
-    fit,
+    fit_structure,
     parameters,
     profile,
     refine,
@@ -50,15 +50,13 @@ __all__ = [
     "Term",
     "TermSpec",
     "descend",
-    "fit",
+    "fit_structure",
     "inference",
-    "integrated_time",
     "make_term",
     "parameters",
     "profile",
     "raw",
     "refine",
-    "residual_tau_int",
     "scan",
     "sign_findings",
 ]

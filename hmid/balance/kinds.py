@@ -33,6 +33,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hmid._registry import from_registry
 from hmid.balance.columns import Column, Columns
+from hmid.balance.monomial import Monomial
 from hmid.balance.operations import lagged, memory_response
 from hmid.balance.signals import Signals, raw
 from hmid.balance.terms import Hyper, Term, unit_of
@@ -148,8 +149,6 @@ class ChannelTerm(TermSpec):
         return self
 
     def powers(self) -> dict[str, int]:
-        from hmid.models.terms import Term as Monomial
-
         return dict(Monomial.parse(self.channel).powers)
 
     @property
@@ -157,8 +156,6 @@ class ChannelTerm(TermSpec):
         return tuple(self.powers())
 
     def regressor(self):
-        from hmid.models.terms import Term as Monomial
-
         return Monomial.parse(self.channel).pretty
 
     def of_smoothed(self, signals) -> bool:

@@ -33,13 +33,14 @@ from pydantic import BaseModel, ConfigDict, Field, SerializeAsAny, field_validat
 from hmid.balance.kinds import (
     CoulombTerm,
     ModelSlot,
+    Name,
     SmoothCoulombTerm,
     TermSpec,
     make_term,
 )
+from hmid.balance.monomial import Monomial
 from hmid.errors import ConfigError
 
-Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=40)]
 Positive = Annotated[float, Field(gt=0)]
 DERIVED = ("v", "a")
 
@@ -48,7 +49,7 @@ class _Frozen(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
-class ChannelSpec(_Frozen):
+class RigChannel(_Frozen):
     """A log channel the model may read. ``sign: -1`` when the logger counts it the other way
     than the rig's convention (the channel is negated on loading)."""
 
@@ -66,8 +67,6 @@ class KnownPart(_Frozen):
     name: str = ""
 
     def powers(self) -> dict[str, int]:
-        from hmid.models.terms import Term as Monomial
-
         return dict(Monomial.parse(self.channel).powers)
 
 
@@ -103,7 +102,7 @@ class RigSection(_Frozen):
 
     name: str = "rig"
     convention: str = ""
-    channels: Annotated[dict[Name, ChannelSpec], Field(min_length=1)]
+    channels: Annotated[dict[Name, RigChannel], Field(min_length=1)]
     position: str | None = None
     explained: Explained
     balance: Annotated[tuple[SerializeAsAny[TermSpec], ...], Field(min_length=1)]
@@ -235,8 +234,7 @@ class RigSection(_Frozen):
         return units
 
     def _explained_unit(self, units: Mapping[str, str]) -> str:
-        from hmid.io.units import unit_registry
-        from hmid.models.terms import format_unit
+        from hmid.io.units import format_unit, unit_registry
 
         ureg = unit_registry()
         found = []
@@ -265,15 +263,15 @@ class RigSection(_Frozen):
 
     def term_value(self, term: TermSpec, units: Mapping[str, str]) -> float:
         """A known term's coefficient in SI (its declared unit converted)."""
-        from hmid.balance.terms import coefficient_unit
+        from hmid.balance.terms import implied_unit
 
         parts = tuple((units[c], float(p)) for c, p in sorted(term.powers().items()))
-        si = coefficient_unit(units["target"], parts)
+        si = implied_unit(units["target"], parts)
         return _to_si(float(term.value), term.unit or si, si, None, term.name)
 
     def check_units(self, units: Mapping[str, str], source: str) -> None:
         """Every declared ``unit`` has the dimension the balance implies (one-line errors)."""
-        from hmid.balance.terms import coefficient_unit
+        from hmid.balance.terms import implied_unit
         from hmid.io.units import unit_registry
 
         ureg = unit_registry()
@@ -281,7 +279,7 @@ class RigSection(_Frozen):
             if term.unit is None or isinstance(term, ModelSlot):
                 continue
             parts = tuple((units[c], float(p)) for c, p in sorted(term.powers().items()))
-            implied = coefficient_unit(units["target"], parts)
+            implied = implied_unit(units["target"], parts)
             try:
                 declared = ureg.parse_units(term.unit)
             except Exception:
@@ -298,10 +296,10 @@ class RigSection(_Frozen):
 
 
 def _part_unit(part: KnownPart, units: Mapping[str, str]) -> str:
-    from hmid.balance.terms import coefficient_unit
+    from hmid.balance.terms import implied_unit
 
     parts = tuple((units[c], float(p)) for c, p in sorted(part.powers().items()))
-    return coefficient_unit(units["target"], parts)
+    return implied_unit(units["target"], parts)
 
 
 def _to_si(value: float, unit: str | None, si: str, target: str | None, where: str) -> float:

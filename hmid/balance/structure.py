@@ -17,8 +17,8 @@ import numpy as np
 import pandas as pd
 
 from hmid.balance.columns import Columns, LeastSquares, Plan, plan
+from hmid.balance.inference import inference
 from hmid.balance.signals import Signals, recording
-from hmid.balance.statistics import inference
 from hmid.balance.terms import Term
 from hmid.metrics import Scores, score
 
@@ -143,7 +143,9 @@ class StructureFit:
         return score(self.target[rows], self.prediction[rows], kind)
 
 
-def fit(structure: Structure, signals: Signals, rows: np.ndarray | None = None) -> StructureFit:
+def fit_structure(
+    structure: Structure, signals: Signals, rows: np.ndarray | None = None
+) -> StructureFit:
     """Least squares of ``signals.target`` on the structure's columns over ``rows`` (default
     the training rows)."""
     rows = signals.train if rows is None else rows
@@ -163,7 +165,7 @@ def scan(
     others fixed: the best fit and all of them (in grid order)."""
     grid = best.structure.terms[index].term.hyper.grid
     grid = tuple(dict.fromkeys((*grid[::step], grid[-1])))
-    fits = [fit(best.structure.at(index, g), signals, rows) for g in grid]
+    fits = [fit_structure(best.structure.at(index, g), signals, rows) for g in grid]
     found = min(fits, key=lambda f: f.sse)
     return (found if found.sse < best.sse else best), fits
 
@@ -179,14 +181,14 @@ def descend(best: StructureFit, index: int, signals: Signals, rows=None) -> Stru
     if grid[start] != current:
         # a refined value between grid points stays unless a grid point fits better: snapping
         # a sharply determined relaxation time to its grid would cost more than the walk gains
-        trial = fit(best.structure.at(index, float(grid[start])), signals, rows)
+        trial = fit_structure(best.structure.at(index, float(grid[start])), signals, rows)
         if trial.sse < best.sse:
             best = trial
     origin = best.structure.terms[index].value
     for step in (-1, 1):
         j = start + step
         while 0 <= j < len(grid):
-            trial = fit(best.structure.at(index, float(grid[j])), signals, rows)
+            trial = fit_structure(best.structure.at(index, float(grid[j])), signals, rows)
             if trial.sse >= best.sse:
                 break
             best, j = trial, j + step
@@ -212,11 +214,11 @@ def refine(best: StructureFit, signals: Signals, rows=None, *, fixed=()) -> Stru
         forward, back = (np.log, np.exp) if hyper.log else (float, float)
 
         def sse(u: float, index=index, back=back, start=best) -> float:
-            return fit(start.structure.at(index, float(back(u))), signals, rows).sse
+            return fit_structure(start.structure.at(index, float(back(u))), signals, rows).sse
 
         found = minimize_scalar(sse, bounds=(forward(low), forward(high)), method="bounded",
                                 options={"xatol": 1e-3})  # fmt: skip
-        trial = fit(best.structure.at(index, float(back(found.x))), signals, rows)
+        trial = fit_structure(best.structure.at(index, float(back(found.x))), signals, rows)
         if trial.sse < best.sse:
             best = trial
     return best
@@ -230,7 +232,7 @@ def profile(
     then refined. ``step`` > 1 scans every step-th grid value and then walks the grid from the
     best (:func:`descend`): the whole range at a coarser resolution, for profiles repeated many
     times (the loop's candidates), whose SSE is smooth along the grid."""
-    best = fit(structure, signals, rows)
+    best = fit_structure(structure, signals, rows)
     indices = [i for i in best.structure.hypers if i not in fixed]
     for _ in range(sweeps if len(indices) > 1 else 1):
         before = [best.structure.terms[i].value for i in indices]
@@ -268,7 +270,7 @@ def _sensitivity(fitted: StructureFit, index: int, signals: Signals) -> np.ndarr
 
 def parameters(fitted: StructureFit, signals: Signals, confidence: float) -> pd.DataFrame:
     """The fitted parameters with intervals (for errors correlated as the residual is, see
-    :func:`~hmid.balance.statistics.inference`), profiled ones
+    :func:`~hmid.balance.inference.inference`), profiled ones
     included: their sensitivity columns enter the covariance (Gauss-Newton), so the linear
     parameters that trade off against them get honest intervals. Columns: parameter, value,
     std. error, lower, upper, unit, positive."""

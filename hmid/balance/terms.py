@@ -118,10 +118,10 @@ def _implied(target: str, regressor: tuple[tuple[str, float], ...]):
 
 
 @lru_cache(maxsize=1024)
-def coefficient_unit(target: str, regressor: tuple[tuple[str, float], ...]) -> str:
+def implied_unit(target: str, regressor: tuple[tuple[str, float], ...]) -> str:
     """Unit of a coefficient that multiplies a regressor with ``regressor`` = ((unit, power), ...)
-    to give ``target``: ``coefficient_unit("N", (("m/s", 1),))`` is ``'N·s/m'``."""
-    from hmid.models.terms import format_unit
+    to give ``target``: ``implied_unit("N", (("m/s", 1),))`` is ``'N·s/m'``."""
+    from hmid.io.units import format_unit
 
     return format_unit(_implied(target, regressor))
 
@@ -142,7 +142,7 @@ def display_unit(
                 return declared
         except Exception:
             pass
-    return coefficient_unit(target, regressor)
+    return implied_unit(target, regressor)
 
 
 def unit_of(signals: Signals, powers: Mapping[str, int], declared: str | None = None) -> str:

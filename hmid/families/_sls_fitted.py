@@ -36,7 +36,7 @@ class SLSFitted(FittedModel):
     start_notes: tuple[str, ...]
     rig: RigSection
     method: str = "mcmc"  # "exact": independent draws from the collapsed posterior
-    grid: Any = None  # hmid.models.sls.collapsed.Grid of the exact posterior
+    grid: Any = None  # hmid.models.sls.collapsed.PosteriorGrid of the exact posterior
     adjustment: Any = None  # hmid.models.sls._sandwich.Adjustment, if the draws were widened
 
     def structure(self) -> Structure:

@@ -1,7 +1,7 @@
 """The ``balance`` family: least squares on the rig's declared terms (and, where the rig has a
 model slot, on the slot terms declared here), every profiled parameter profiled over its grid.
 
-Intervals count the residual's effective sample size (see :mod:`hmid.balance.statistics`) and
+Intervals count the residual's effective sample size (see :mod:`hmid.stats`) and
 include the profiled parameters (Gauss-Newton); every parameter that physics makes positive is
 checked (:func:`hmid.balance.sign_findings`).
 
@@ -28,11 +28,10 @@ from hmid.balance import (
     make_term,
     parameters,
     profile,
-    residual_tau_int,
     sign_findings,
 )
+from hmid.balance.inference import CALIBRATED_TAU
 from hmid.balance.kinds import ModelSlot
-from hmid.balance.statistics import CALIBRATED_TAU
 from hmid.families.base import (
     STATISTICS,
     FamilySpec,
@@ -43,6 +42,7 @@ from hmid.families.base import (
     FittedModel,
 )
 from hmid.intervals import IntervalNote
+from hmid.stats import residual_tau_int
 
 
 class BalanceSpec(FamilySpec):

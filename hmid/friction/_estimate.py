@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 from hmid.friction._law import LawCheck
-from hmid.friction._models import CALIBRATED_TAU, FallRig, FrictionModel
+from hmid.friction._models import FRICTION_CALIBRATED_TAU, FallRig, FrictionModel
 from hmid.intervals import IntervalNote
 
 Interval = tuple[float, float]
@@ -195,7 +195,7 @@ class FrictionEstimate:
         )  # fmt: skip
         return IntervalNote(
             self.confidence, method, tau_int if math.isfinite(tau_int) else None,
-            CALIBRATED_TAU, "benchmarks/bench_calibration_friction.py",
+            FRICTION_CALIBRATED_TAU, "benchmarks/bench_calibration_friction.py",
         )  # fmt: skip
 
     def _param_columns(self, params, ci, suffix: str = "") -> dict[str, float]:

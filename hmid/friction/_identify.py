@@ -14,8 +14,8 @@ from hmid.friction._estimate import FrictionEstimate, LoadCellCheck, LogFriction
 from hmid.friction._law import check_law
 from hmid.friction._models import FallRig, FrictionModel, correlated_covariance
 from hmid.io.log import Log
-from hmid.models._ar_white import fit_ar_white
 from hmid.signal import Differentiator
+from hmid.stats import fit_ar_white
 
 #: Fewest samples a sliding segment must keep after trimming.
 MIN_SLIDING_SAMPLES = 30

@@ -34,12 +34,12 @@ import statsmodels.api as sm
 from scipy.optimize import curve_fit
 
 if TYPE_CHECKING:
-    from hmid.models._ar_white import ARWhite
+    from hmid.stats import ARWhite
 
 #: The longest residual correlation time (samples, as :func:`correlated_covariance` measures
 #: it) at which benchmarks/bench_calibration_friction.py met the band: the median over the
 #: falls of its AR(1) phi = 0.97 case, 29.5 (phi 0.5: 2.6; phi 0.9: 13.5).
-CALIBRATED_TAU = 29.0
+FRICTION_CALIBRATED_TAU = 29.0
 
 
 @dataclass(frozen=True)
@@ -85,15 +85,15 @@ def correlated_covariance(
     direction, of: the i.i.d. covariance (n - p df; on a short fall a white residual's
     estimated autocovariance is noisy, and a too-narrow interval fails the pooling's
     homogeneity test); the sandwich with the residual's autocovariance up to Sokal's window
-    (:mod:`hmid.models._intervals`, n / (2 M + 1) df); and the sandwich for AR(1) + white errors
-    fitted through the fit's projection (:mod:`hmid.models._ar_white`, n (1 - phi) / (1 + phi)
-    df): a fall a few correlation times long holds too few lags for the first, and its
-    residual has lost the errors' slow part to the fit. ``noise``: that AR(1) + white model
-    fitted on every fall of the sensor at once (:func:`~hmid.friction.identify_friction`), in
-    place of this fall's own; the df stay this fall's n (1 - phi) / (1 + phi), since phi itself
-    is uncertain (with the df of all the falls' rows, phi 0.97 falls covered 0.90)."""
-    from hmid.models._ar_white import fit_ar_white
-    from hmid.models._intervals import autocov_covariance, residual_correlation
+    (:func:`hmid.stats.autocov_covariance`, n / (2 M + 1) df); and the sandwich for AR(1) +
+    white errors fitted through the fit's projection (:func:`hmid.stats.fit_ar_white`,
+    n (1 - phi) / (1 + phi) df): a fall a few correlation times long holds too few lags for the
+    first, and its residual has lost the errors' slow part to the fit. ``noise``: that AR(1) +
+    white model fitted on every fall of the sensor at once
+    (:func:`~hmid.friction.identify_friction`), in place of this fall's own; the df stay this
+    fall's n (1 - phi) / (1 + phi), since phi itself is uncertain (with the df of all the
+    falls' rows, phi 0.97 falls covered 0.90)."""
+    from hmid.stats import autocov_covariance, fit_ar_white, residual_correlation
 
     n, p = jacobian.shape
     gamma, window, tau_int = residual_correlation(resid)

@@ -150,3 +150,27 @@ def to_si(
     quantity = ureg.Quantity(np.asarray(values, dtype="float64"), _parse(unit))
     converted = quantity.to(_parse(target) if target != "1" else ureg.dimensionless)
     return np.asarray(converted.magnitude, dtype="float64"), target
+
+
+_SUPERSCRIPTS = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
+
+
+def format_unit(unit: object) -> str:
+    """A pint unit as compact text: 'N', 'N/m', 'N·s²/m²', 'N/(m·Pa)'; '1' if dimensionless."""
+    ureg = unit_registry()
+
+    def factor(name: str, power: float) -> str:
+        symbol = ureg.get_symbol(name)
+        power = abs(power)
+        if power == 1:
+            return symbol
+        text = str(int(power)) if float(power).is_integer() else f"^{power:g}"
+        return symbol + text.translate(_SUPERSCRIPTS)
+
+    items = list(unit._units.items())  # pint's UnitsContainer: {'newton': 1, 'meter': -2, ...}
+    numerator = "·".join(factor(n, p) for n, p in items if p > 0) or "1"
+    negative = [factor(n, p) for n, p in items if p < 0]
+    if not negative:
+        return numerator
+    denominator = negative[0] if len(negative) == 1 else "(" + "·".join(negative) + ")"
+    return f"{numerator}/{denominator}"

@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 
 from hmid.balance import Signals
-from hmid.balance.statistics import autocorrelation, integrated_time, lag_count, masked_series
+from hmid.stats import autocorrelation, integrated_time, lag_count, masked_series
 
 N_BINS = 24
 N_BINS_TIME = 6  # coarser than a fold block, so every time bin is seen by the other folds

@@ -16,7 +16,6 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from hmid.balance import Signals, Structure, StructureFit, profile
-from hmid.balance.statistics import residual_tau_int
 from hmid.families.base import FitData, Fitted
 from hmid.loop.candidates import ELASTIC, STIFFNESS, Setting, level, make_candidates
 from hmid.loop.config import LoopSpec
@@ -27,7 +26,7 @@ from hmid.loop.parallel import screen_round
 from hmid.loop.result import Alternative, LoopResult, finish, make_effect, own_parameters
 from hmid.loop.screen import PROFILE_STEP, Screen
 from hmid.loop.selection import Folds, bootstrap, change, out_of_fold
-from hmid.loop.statistics import NestedTest, holm
+from hmid.stats import NestedTest, holm, residual_tau_int
 
 
 @dataclass(frozen=True)

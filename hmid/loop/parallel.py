@@ -17,12 +17,11 @@ from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 
-from hmid.balance import Signals, Structure, StructureFit
-from hmid.balance import fit as fit_structure
+from hmid.balance import Signals, Structure, StructureFit, fit_structure
 from hmid.balance.structure import Placed
 from hmid.loop.candidates import Candidate
 from hmid.loop.screen import Screen, screen
-from hmid.loop.statistics import NestedTest
+from hmid.stats import NestedTest
 
 #: in a worker: the round it screens (its file's path and what the file holds)
 _ROUND: dict[str, tuple] = {}

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from hmid.balance.statistics import CALIBRATED_TAU
+from hmid.balance.inference import CALIBRATED_TAU
 from hmid.loop.plots import plot_pattern, plot_whiteness
 from hmid.loop.result import Effect, LoopResult
 from hmid.report import Figure, Section, Table

@@ -22,11 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hmid.balance import Signals, StructureFit, descend, parameters, profile, refine
-from hmid.balance import fit as fit_structure
-from hmid.balance.statistics import profile_interval, residual_tau_int
+from hmid.balance import Signals, StructureFit, descend, fit_structure, parameters, profile, refine
 from hmid.loop.candidates import Candidate
-from hmid.loop.statistics import NestedTest
+from hmid.stats import NestedTest, profile_interval, residual_tau_int
 
 #: every 4th point of a model's hyperparameter grid (ratio 1.17^4 = 1.9 on the SLS's tau grid),
 #: then a walk from the best: each candidate re-profiles the model twice, and this is most of

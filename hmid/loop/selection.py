@@ -14,8 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hmid.balance import Signals, Structure
-from hmid.balance import fit as fit_structure
+from hmid.balance import Signals, Structure, fit_structure
 
 
 @dataclass(frozen=True)

@@ -5,6 +5,7 @@ fitted attributes end in ``_``, :class:`NotFittedError` before ``fit``) and summ
 a :class:`FitSummary` with :class:`Coefficient` values in physical units.
 """
 
+from hmid.balance.monomial import Monomial
 from hmid.models.base import (
     Coefficient,
     FitSummary,
@@ -20,7 +21,6 @@ from hmid.models.polynomial import (
 )
 from hmid.models.terms import (
     VARIANTS,
-    Term,
     coefficient_unit,
     polynomial_terms,
     variant_terms,
@@ -33,9 +33,9 @@ __all__ = [
     "Coefficient",
     "FitSummary",
     "ForceModel",
+    "Monomial",
     "NotFittedError",
     "PolynomialModel",
-    "Term",
     "coefficient_unit",
     "fit_statistics",
     "fit_table",

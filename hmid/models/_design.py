@@ -13,12 +13,12 @@ from functools import partial
 
 import numpy as np
 
+from hmid.balance.monomial import Monomial
 from hmid.models._lstsq import RowBlocks
-from hmid.models.terms import Term
 
 
 def row_design(
-    terms: Sequence[Term],
+    terms: Sequence[Monomial],
     X: Mapping[str, np.ndarray],
     scales: Mapping[str, float],
     given: Mapping[str, np.ndarray],
@@ -44,6 +44,6 @@ def _scaled(column: Callable[[slice], np.ndarray], factor: float, rows: slice) -
     return column(rows) / factor
 
 
-def _evaluated(term: Term, arrays, scales, rows: slice) -> np.ndarray:
+def _evaluated(term: Monomial, arrays, scales, rows: slice) -> np.ndarray:
     n = len(next(iter(arrays.values()))[rows]) if arrays else rows.stop - rows.start
     return term.evaluate({v: arrays[v][rows] for v in term.variables}, scales, n)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 #: Rows per QR block: large enough for BLAS, small beside a long log.
-BLOCK = 32_768
+QR_BLOCK = 32_768
 
 
 @dataclass(frozen=True)
@@ -69,15 +69,15 @@ class RowBlocks:
         out = np.empty((max(stop - start, 0), self.shape[1]))
         for k, column in enumerate(self.columns):
             out[:, k] = column(slice(start, stop))
-        if stop - start <= BLOCK:
+        if stop - start <= QR_BLOCK:
             out.flags.writeable = False
             self._last = ((start, stop), out)
         return out
 
     def __matmul__(self, params: np.ndarray) -> np.ndarray:
         out = np.empty(self.shape[0])
-        for i in range(0, self.shape[0], BLOCK):
-            out[i : i + BLOCK] = self[i : i + BLOCK] @ params
+        for i in range(0, self.shape[0], QR_BLOCK):
+            out[i : i + QR_BLOCK] = self[i : i + QR_BLOCK] @ params
         return out
 
     def __array__(self, dtype=None, copy=None) -> np.ndarray:
@@ -97,7 +97,7 @@ def r_factor(a: np.ndarray) -> np.ndarray:
     return np.triu(factored[: min(a.shape)])  # below the diagonal: the reflectors, not R
 
 
-def tall_lstsq(exog: np.ndarray | RowBlocks, y: np.ndarray, block: int = BLOCK) -> TallFit:
+def tall_lstsq(exog: np.ndarray | RowBlocks, y: np.ndarray, block: int = QR_BLOCK) -> TallFit:
     """Ordinary least squares of ``y`` on ``exog`` (n x p), by blocks of ``block`` rows."""
     n, p = exog.shape
     r = np.zeros((0, p + 1))

@@ -48,15 +48,10 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
+from hmid.balance.monomial import Monomial, variable_order
 from hmid.errors import ConfigError, SignalError
 from hmid.intervals import IntervalNote
 from hmid.models._design import row_design
-from hmid.models._intervals import (
-    autocov_covariance,
-    hac_covariance,
-    hac_lags,
-    residual_correlation,
-)
 from hmid.models._lstsq import RowBlocks, tall_lstsq
 from hmid.models.base import (
     Coefficient,
@@ -67,13 +62,12 @@ from hmid.models.base import (
 )
 from hmid.models.terms import (
     VARIANTS,
-    Term,
     coefficient_unit,
     polynomial_terms,
     resolve_terms,
-    variable_order,
     variable_unit,
 )
+from hmid.stats import autocov_covariance, hac_covariance, hac_lags, residual_correlation
 
 __all__ = [
     "CONDITION_LIMIT",
@@ -81,7 +75,6 @@ __all__ = [
     "ERRORS",
     "VARIANTS",
     "PolynomialModel",
-    "Term",
     "fit_table",
     "polynomial_terms",
 ]
@@ -94,7 +87,7 @@ DURBIN_WATSON_LIMIT = 1.5
 ERRORS = ("autocov", "ols", "hac")
 #: The longest residual correlation time (samples) at which the default intervals were measured
 #: calibrated (AR(1) phi = 0.97 in benchmarks/bench_calibration_polynomial.py).
-CALIBRATED_TAU = 66.0
+POLYNOMIAL_CALIBRATED_TAU = 66.0
 #: Unit of the target, the muscle force.
 FORCE_UNIT = "N"
 
@@ -104,9 +97,10 @@ class PolynomialModel(ForceModel):
     variables with their SI ``units`` (a mapping), a target in ``target_unit``.
 
     ``terms`` is a variant name (``'quadratic_xv'``, ``'cubic_xv'``, ``'quadratic_xvP'``,
-    ``'cubic_xvP'``) or a tuple of :class:`Term` (or term names like ``'x^2*v'``), e.g. from
-    :func:`polynomial_terms`. ``confidence`` is the level of the reported confidence intervals,
-    ``errors`` their method (``'autocov'``, ``'ols'`` or ``'hac'``, see the module docstring).
+    ``'cubic_xvP'``) or a tuple of :class:`~hmid.balance.monomial.Monomial` (or term names like
+    ``'x^2*v'``), e.g. from :func:`polynomial_terms`. ``confidence`` is the level of the reported
+    confidence intervals, ``errors`` their method (``'autocov'``, ``'ols'`` or ``'hac'``, see the
+    module docstring).
     ``scale=False`` fits in physical units (for comparison only: it is badly conditioned).
 
     Fitted attributes, in physical units and term order: ``coef_``, ``bse_`` (standard errors),
@@ -123,7 +117,7 @@ class PolynomialModel(ForceModel):
 
     def __init__(
         self,
-        terms: tuple[Term | str, ...] | str,
+        terms: tuple[Monomial | str, ...] | str,
         confidence: float = 0.95,
         scale: bool = True,
         errors: str = "autocov",
@@ -158,7 +152,7 @@ class PolynomialModel(ForceModel):
         return self.terms if isinstance(self.terms, str) else "custom"
 
     @property
-    def term_set(self) -> tuple[Term, ...]:
+    def term_set(self) -> tuple[Monomial, ...]:
         return self._terms
 
     @property
@@ -214,7 +208,7 @@ class PolynomialModel(ForceModel):
         elif self.errors == "hac":
             self.hac_lags_ = hac_lags(resid)
             cov, df = (
-                hac_covariance(np.asarray(exog), y, self.hac_lags_, Term() in self._terms),
+                hac_covariance(np.asarray(exog), y, self.hac_lags_, Monomial() in self._terms),
                 None,
             )
         else:
@@ -343,8 +337,9 @@ class PolynomialModel(ForceModel):
             method, claim = f"Newey-West HAC ({self.hac_lags_} lags)", "measured 0.90-0.94"
             return IntervalNote(self.confidence, method, self.tau_int_, claim=claim)
         return IntervalNote(
-            self.confidence, "OLS + autocovariance sandwich", self.tau_int_, CALIBRATED_TAU,
-            "benchmarks/bench_calibration_polynomial.py", self.acf_window_ is not None,
+            self.confidence, "OLS + autocovariance sandwich", self.tau_int_,
+            POLYNOMIAL_CALIBRATED_TAU, "benchmarks/bench_calibration_polynomial.py",
+            self.acf_window_ is not None,
         )  # fmt: skip
 
     def interval_method(self) -> str:
@@ -364,13 +359,14 @@ class PolynomialModel(ForceModel):
             )
         lags = "the lags examined" if self.acf_window_ is None else f"±{self.acf_window_} lags"
         status = (
-            "within" if self.acf_window_ is not None and self.tau_int_ <= CALIBRATED_TAU
+            "within" if self.acf_window_ is not None and self.tau_int_ <= POLYNOMIAL_CALIBRATED_TAU
             else "BEYOND"
         )  # fmt: skip
         return (
             f"{level}: OLS estimates, covariance from the residual's autocovariance over {lags}, "
             f"t with {self.df_:.0f} df; calibrated for residual correlation times up to "
-            f"{CALIBRATED_TAU:g} rows (benchmarks/bench_calibration_polynomial.py); this fit: "
+            f"{POLYNOMIAL_CALIBRATED_TAU:g} rows (benchmarks/bench_calibration_polynomial.py); "
+            "this fit: "
             f"{self.tau_int_:.3g} rows, {status} that range"
         )
 

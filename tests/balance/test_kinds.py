@@ -95,7 +95,7 @@ def test_a_power_of_a_logged_channel_is_smoothed_after_it_is_evaluated():
     was read by the loop as direction-dependent Stribeck friction on the knee rig."""
     from dataclasses import replace
 
-    from hmid.balance.structure import Structure, fit
+    from hmid.balance.structure import Structure, fit_structure
     from hmid.signal import MovingAverage
 
     smoother = MovingAverage(window=25, passes=3)
@@ -109,7 +109,7 @@ def test_a_power_of_a_logged_channel_is_smoothed_after_it_is_evaluated():
     k3 = 2e6
     signals = signals.with_columns(target=-k3 * signals.smooth(signals["raw:x"] ** 3))
     term = make_term({"kind": "channel", "name": "k3", "channel": "x^3", "sign": -1})
-    result = fit(Structure.of([term]), signals)
+    result = fit_structure(Structure.of([term]), signals)
     assert result.params["k3"] == pytest.approx(k3, rel=1e-9)
     usable = signals.usable
     assert np.max(np.abs(result.residual[usable])) < 1e-9 * k3 * 0.02**3

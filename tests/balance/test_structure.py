@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from _balance_data import signals_with
 
-from hmid.balance import Structure, fit, make_term, parameters, profile
+from hmid.balance import Structure, fit_structure, make_term, parameters, profile
 from hmid.balance.columns import Columns
 from hmid.balance.operations import memory_arms
 from hmid.balance.terms import Term
@@ -68,7 +68,7 @@ def test_a_column_two_terms_share_enters_once_and_columns_are_cached():
     assert columns.names == ("Fc",)
     assert structure.columns(signals).values is not None
     assert len(signals.cache[("columns", a, None)]) == 1
-    assert fit(structure, signals).columns.width == 1
+    assert fit_structure(structure, signals).columns.width == 1
 
 
 class _Scaled(Term):

@@ -13,8 +13,8 @@ import numpy as np
 from test_contract import test_every_family_honours_the_fit_contract as honours_contract
 from test_contract import test_every_family_states_terms_the_loop_can_refit as refittable
 
-from hmid.balance import RigSection, Structure, fit, make_term, parameters, residual_tau_int
-from hmid.balance.statistics import CALIBRATED_TAU
+from hmid.balance import RigSection, Structure, fit_structure, make_term, parameters
+from hmid.balance.inference import CALIBRATED_TAU
 from hmid.families import (
     FAMILIES,
     FamilySpec,
@@ -25,6 +25,7 @@ from hmid.families import (
     FittedModel,
 )
 from hmid.intervals import IntervalNote
+from hmid.stats import residual_tau_int
 
 
 class LinearSpringSpec(FamilySpec):  # 1. a config section, named by its ``family`` literal
@@ -46,7 +47,9 @@ class LinearSpringSpec(FamilySpec):  # 1. a config section, named by its ``famil
                  make_term({"kind": "constant", "name": "F0", "sign": s}),
                  make_term({"kind": "channel", "name": "k", "channel": x, "sign": -s,
                             "positive": True})]  # fmt: skip
-        fitted = fit(Structure.of(terms), data.signals)  # least squares on the training rows
+        fitted = fit_structure(
+            Structure.of(terms), data.signals
+        )  # least squares on the training rows
         tau = residual_tau_int(fitted.residual, data.signals)
         return [
             Fitted(  # 6. what the comparison, the report and the loop read

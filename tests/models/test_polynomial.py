@@ -15,8 +15,8 @@ from hmid.io.units import unit_registry
 from hmid.models import (
     CONDITION_LIMIT,
     VARIANTS,
+    Monomial,
     PolynomialModel,
-    Term,
     coefficient_unit,
     fit_table,
     polynomial_terms,
@@ -32,7 +32,7 @@ THESIS_ORDER = (
 )  # C0 ... C15
 
 
-def true_coefficients(terms: tuple[Term, ...], seed: int = 12345) -> np.ndarray:
+def true_coefficients(terms: tuple[Monomial, ...], seed: int = 12345) -> np.ndarray:
     """Coefficients in physical units with each term worth between 0.2 and 1 N at typical size."""
     rng = np.random.default_rng(seed)
     size = rng.uniform(0.2, 1.0, len(terms)) * rng.choice([-1.0, 1.0], len(terms))
@@ -40,7 +40,7 @@ def true_coefficients(terms: tuple[Term, ...], seed: int = 12345) -> np.ndarray:
 
 
 def sample(
-    terms: tuple[Term, ...], coef: np.ndarray, seed: int, n: int = 300
+    terms: tuple[Monomial, ...], coef: np.ndarray, seed: int, n: int = 300
 ) -> tuple[pd.DataFrame, np.ndarray]:
     rng = np.random.default_rng(seed)
     X = pd.DataFrame({k: rng.uniform(lo, hi, n) for k, (lo, hi) in RANGE.items()})
@@ -77,7 +77,7 @@ def test_variant_term_sets_are_nested_prefixes_where_the_thesis_says_so() -> Non
 def test_generator_is_configurable_and_its_names_read_back() -> None:
     terms = polynomial_terms(("x", "v", "P"), degree=3, max_degree_per_variable={"P": 1})
     assert terms == variant_terms("cubic_xvP")
-    assert all(Term.parse(t.name) == t for t in terms)
+    assert all(Monomial.parse(t.name) == t for t in terms)
     assert [t.exponents(("x", "v", "P")) for t in terms[:4]] == [
         (0, 0, 0),
         (1, 0, 0),
@@ -87,8 +87,8 @@ def test_generator_is_configurable_and_its_names_read_back() -> None:
     free = polynomial_terms(("x", "P"), degree=2, max_degree_per_variable={})
     assert [t.name for t in free] == ["1", "x", "P", "x^2", "x*P", "P^2"]
     assert len(polynomial_terms(("x", "v"), degree=3)) == 10  # default P cap ignored without P
-    assert Term.parse("v * x") == Term.of(x=1, v=1) and Term.of(x=1, v=1).name == "x*v"
-    assert Term.of(x=2, v=1).pretty == "x²·v" and Term().name == "1"
+    assert Monomial.parse("v * x") == Monomial.of(x=1, v=1) and Monomial.of(x=1, v=1).name == "x*v"
+    assert Monomial.of(x=2, v=1).pretty == "x²·v" and Monomial().name == "1"
 
 
 @pytest.mark.parametrize(
@@ -97,8 +97,8 @@ def test_generator_is_configurable_and_its_names_read_back() -> None:
         (lambda: polynomial_terms(("x", "v"), 2, {"p": 1}), "names 'p'"),
         (lambda: polynomial_terms(("x", "x"), 2), "distinct"),
         (lambda: polynomial_terms(("x",), -1), "degree"),
-        (lambda: Term.parse("x^^2"), "cannot read term"),
-        (lambda: Term.of(x=-1), "positive integer"),
+        (lambda: Monomial.parse("x^^2"), "cannot read term"),
+        (lambda: Monomial.of(x=-1), "positive integer"),
         (lambda: variant_terms("cubic"), "unknown polynomial variant 'cubic'"),
         (lambda: PolynomialModel("cubic"), "choose one of"),
         (lambda: PolynomialModel(("1", "q")), "variable 'q' has no known unit"),
@@ -129,7 +129,7 @@ def test_bad_term_sets_and_hyper_parameters_fail_at_construction(call, match: st
     ],
 )
 def test_coefficient_units(term: str, unit: str) -> None:
-    assert coefficient_unit(Term.parse(term)) == unit
+    assert coefficient_unit(Monomial.parse(term)) == unit
 
 
 def test_every_unit_string_has_the_dimension_force_over_the_term() -> None:
@@ -338,7 +338,7 @@ def test_default_intervals_are_calibrated_on_ar1_noise_where_ols_intervals_are_n
 def test_autocov_covariance_is_the_sandwich_with_the_toeplitz_autocovariance() -> None:
     from scipy.linalg import toeplitz
 
-    from hmid.models.polynomial import autocov_covariance
+    from hmid.stats import autocov_covariance
 
     rng = np.random.default_rng(3)
     exog = np.column_stack([np.ones(200), rng.normal(size=200), np.linspace(-1, 1, 200)])
@@ -383,7 +383,7 @@ def test_a_correlation_as_long_as_the_log_is_a_warning() -> None:
 def test_the_residual_autocovariance_is_statsmodels_acovf() -> None:
     from statsmodels.tsa.stattools import acovf
 
-    from hmid.models._intervals import residual_correlation
+    from hmid.stats import residual_correlation
 
     for n in (2, 9, 1000, 20_001):
         residual = _ar1(0.9, 1.0, n, np.random.default_rng(n))
@@ -401,19 +401,21 @@ class _Products(dict):
         self.columns = columns
 
     def block(self, name: str):
-        term = Term.parse(name)
+        term = Monomial.parse(name)
         return lambda rows: term.evaluate({k: v[rows] for k, v in self.columns.items()})
 
 
 def test_the_design_by_row_blocks_is_the_dense_design_and_fits_identically() -> None:
-    from hmid.models._lstsq import BLOCK, RowBlocks, tall_lstsq
+    from hmid.models._lstsq import QR_BLOCK, RowBlocks, tall_lstsq
 
     rng = np.random.default_rng(4)
-    n = 2 * BLOCK + 123
+    n = 2 * QR_BLOCK + 123
     dense = rng.normal(size=(n, 5))
     blocks = RowBlocks(n, [lambda rows, k=k: dense[rows, k] for k in range(5)])
     assert blocks.shape == dense.shape
-    np.testing.assert_array_equal(blocks[BLOCK - 7 : BLOCK + 9], dense[BLOCK - 7 : BLOCK + 9])
+    np.testing.assert_array_equal(
+        blocks[QR_BLOCK - 7 : QR_BLOCK + 9], dense[QR_BLOCK - 7 : QR_BLOCK + 9]
+    )
     np.testing.assert_array_equal(np.asarray(blocks), dense)
     params = rng.normal(size=5)
     np.testing.assert_allclose(blocks @ params, dense @ params, rtol=0, atol=1e-12)
@@ -429,7 +431,7 @@ def test_products_computed_by_row_blocks_give_the_fit_of_held_columns() -> None:
     X, y = sample(terms, true_coefficients(terms), seed=5, n=3000)
     cols = {k: X[k].to_numpy() for k in X}
     names = [t.name for t in terms if sum(p for _, p in t.powers) > 1]
-    held = {name: Term.parse(name).evaluate(cols) for name in names}
+    held = {name: Monomial.parse(name).evaluate(cols) for name in names}
     by_rows = PolynomialModel("cubic_xvP").fit(X, y, monomials=_Products(cols, held))
     whole = PolynomialModel("cubic_xvP").fit(X, y, monomials=held)
     np.testing.assert_allclose(by_rows.coef_, whole.coef_, rtol=1e-12)
@@ -459,7 +461,7 @@ def test_a_long_fit_holds_the_columns_it_must_not_the_whole_design() -> None:
 
 
 def test_a_design_of_one_block_is_built_once_for_every_pass() -> None:
-    from hmid.models._lstsq import BLOCK, RowBlocks, tall_lstsq
+    from hmid.models._lstsq import QR_BLOCK, RowBlocks, tall_lstsq
 
     calls = []
 
@@ -467,13 +469,13 @@ def test_a_design_of_one_block_is_built_once_for_every_pass() -> None:
         calls.append(k)
         return np.arange(rows.start, rows.stop, dtype=float) ** k
 
-    for n in (BLOCK, 2 * BLOCK + 5):
+    for n in (QR_BLOCK, 2 * QR_BLOCK + 5):
         calls.clear()
         design = RowBlocks(n, [lambda rows, k=k: column(rows, k) for k in range(2)])
         fit = tall_lstsq(design, np.ones(n))
         design @ fit.params
-        blocks = -(-n // BLOCK)
+        blocks = -(-n // QR_BLOCK)
         # one block: built once for the least squares, its residual and the prediction; a long
         # design is built again on each pass (never held whole)
         assert len(calls) == 2 if blocks == 1 else len(calls) > 2 * blocks
-    assert not design[:BLOCK].flags.writeable and np.asarray(design).flags.writeable
+    assert not design[:QR_BLOCK].flags.writeable and np.asarray(design).flags.writeable

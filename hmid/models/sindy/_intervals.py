@@ -2,7 +2,7 @@
 
 ``"autocov"`` (default): STLSQ ends with an unbiasing refit, so the selected terms' coefficients
 *are* the OLS ones on the selected columns alone; their intervals are the polynomial family's
-(:mod:`hmid.models._intervals`): the OLS sandwich with the residual's Toeplitz autocovariance up
+(:mod:`hmid.stats`): the OLS sandwich with the residual's Toeplitz autocovariance up
 to Sokal's window, t intervals on ``min(n - p, n / (2 M + 1))`` degrees of freedom. They are
 **conditional on the selected support**: they say how well the data pin down the coefficients of
 this model, not whether another support would have been chosen from another noise draw (the
@@ -28,14 +28,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from hmid.intervals import IntervalNote
-from hmid.models._intervals import autocov_covariance, residual_correlation
+from hmid.stats import autocov_covariance, residual_correlation
 
 #: Interval methods, the default first.
 INTERVALS = ("autocov", "bootstrap")
 #: The longest residual correlation time (rows, as a fit measures it) at which the default
 #: intervals were measured: AR(1) phi = 0.97 in benchmarks/bench_calibration_sindy.py, 66 samples
 #: of the 1 kHz noise, read as 33-35 rows on the sliding rows' bursts joined end to end.
-CALIBRATED_TAU = 35.0
+SINDY_CALIBRATED_TAU = 35.0
 
 
 @dataclass(frozen=True)
@@ -89,8 +89,8 @@ def note(method: str, confidence: float, tau_int: float, window: int | None) -> 
     if method == "bootstrap":
         return IntervalNote(confidence, "blocked-bootstrap percentile", tau_int)
     return IntervalNote(
-        confidence, "OLS + autocovariance sandwich, given the support", tau_int, CALIBRATED_TAU,
-        "benchmarks/bench_calibration_sindy.py", window is not None,
+        confidence, "OLS + autocovariance sandwich, given the support", tau_int,
+        SINDY_CALIBRATED_TAU, "benchmarks/bench_calibration_sindy.py", window is not None,
     )  # fmt: skip
 
 
@@ -112,14 +112,14 @@ def describe(
             "far wider than the estimates' spread (intervals: autocov, the default, is not)"
         )
     lags = "the lags examined" if window is None else f"±{window} lags"
-    within = window is not None and tau_int <= CALIBRATED_TAU
+    within = window is not None and tau_int <= SINDY_CALIBRATED_TAU
     t = "" if df is None else f", t with {df:.0f} df"
     return (
         f"{level}: OLS refit on the selected terms, covariance from the residual's "
         f"autocovariance over {lags}{t}. Conditional on the selected support: they do not count "
         "the chance that other terms should have been selected (the inclusion column answers "
         "that). Measured calibrated for residual correlation times up to "
-        f"{CALIBRATED_TAU:g} rows (benchmarks/bench_calibration_sindy.py, the support "
+        f"{SINDY_CALIBRATED_TAU:g} rows (benchmarks/bench_calibration_sindy.py, the support "
         "cross-validated among those of the path and the bootstrap); this fit: "
         f"{tau_int:.3g} rows, {'within' if within else 'BEYOND'} that range"
     )

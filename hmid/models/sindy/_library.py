@@ -18,8 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hmid.balance.monomial import Monomial
 from hmid.errors import ConfigError
-from hmid.models.terms import Term, coefficient_unit, polynomial_terms
+from hmid.models.terms import coefficient_unit, polynomial_terms
 
 #: Name of the smooth friction column.
 TANH_NAME = "tanh(v/v0)"
@@ -37,15 +38,15 @@ class Feature:
     pretty: str  # 'x²·v', 'tanh(v/v0)'
     unit: str  # unit of the coefficient that multiplies it to give N
     factor: float
-    term: Term | None = None  # None for tanh(v/v0)
+    term: Monomial | None = None  # None for tanh(v/v0)
 
     @property
     def is_friction(self) -> bool:
         return self.term is None
 
 
-def _exponent_term(variables: tuple[str, ...], powers: np.ndarray) -> Term:
-    return Term.of(**{v: int(p) for v, p in zip(variables, powers, strict=True)})
+def _exponent_term(variables: tuple[str, ...], powers: np.ndarray) -> Monomial:
+    return Monomial.of(**{v: int(p) for v, p in zip(variables, powers, strict=True)})
 
 
 class FeatureLibrary:
@@ -178,7 +179,7 @@ def canonical_name(name: str) -> str:
     if text == TANH_NAME:
         return TANH_NAME
     try:
-        return Term.parse(text).name
+        return Monomial.parse(text).name
     except ConfigError:
         return text
 

@@ -36,9 +36,9 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
+from hmid._blas import one_blas_thread
 from hmid.errors import ConfigError, SignalError
 from hmid.intervals import IntervalNote
-from hmid.models._intervals import one_blas_thread
 from hmid.models.base import (
     Coefficient,
     FitSummary,

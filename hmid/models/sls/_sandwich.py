@@ -7,7 +7,7 @@ models"), the draws of (A_eff, F0, k1, [k3], k2, ln tau) are mapped affinely abo
 theta -> m + C (theta - m), so that their covariance becomes the sandwich covariance of the
 estimate, never narrower than the posterior's in any direction: the prediction's Jacobian J
 with the residual's autocovariance up to Sokal's window, ``(JᵀJ)⁻¹ Jᵀ S J (JᵀJ)⁻¹``
-(:func:`hmid.models._intervals.autocov_covariance`, as the polynomial family's intervals). The
+(:func:`hmid.stats.autocov_covariance`, as the polynomial family's intervals). The
 posterior's shape and sigma are kept; a white residual widens it by a few per cent (the
 autocovariance's sampling noise, only ever widening). Calibrated by
 ``benchmarks/bench_sls_calibration.py``.
@@ -20,11 +20,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from hmid.errors import ConfigError
-from hmid.models._intervals import autocov_covariance, residual_correlation
 from hmid.models.sls._data import SLSData
 from hmid.models.sls._sampler_result import SamplerResult
 from hmid.models.sls.terms import SLSForce
 from hmid.signal.maxwell import responses
+from hmid.stats import autocov_covariance, residual_correlation
 
 _H = 1e-3  # step in ln tau of the Jacobian's central difference
 

@@ -42,7 +42,7 @@ _PHI_COARSE = 201  # atanh-phi points of the first, whole-range pass
 
 
 @dataclass(frozen=True)
-class Grid:
+class PosteriorGrid:
     """The marginal posterior on its grid: ln tau (T,), atanh phi (U,) and log density (T, U)."""
 
     log_tau: np.ndarray
@@ -213,7 +213,9 @@ def _mode_1d(f, centre: float, step: float, points: int = 17, tries: int = 12):
     )
 
 
-def _grid(posterior: _Posterior, tau0: float, phi0: float) -> tuple[Grid, np.ndarray, np.ndarray]:
+def _grid(
+    posterior: _Posterior, tau0: float, phi0: float
+) -> tuple[PosteriorGrid, np.ndarray, np.ndarray]:
     """The grid around the mode: first along ln tau (phi profiled), then both axes."""
     coarse_u = np.linspace(-math.atanh(PHI_MAX), math.atanh(PHI_MAX), _PHI_COARSE)[1:-1]
 
@@ -247,15 +249,15 @@ def _grid(posterior: _Posterior, tau0: float, phi0: float) -> tuple[Grid, np.nda
         if posterior.ar1:
             edges += [value[:, 0].max(), value[:, -1].max()]
         if max(edges) < peak - 25.0:  # e^-25: the box holds the mass
-            return Grid(log_tau, u, value), chol, arm_scale
+            return PosteriorGrid(log_tau, u, value), chol, arm_scale
         half *= 1.5  # a skewed or wider posterior than the curvature said
-    return Grid(log_tau, u, value), chol, arm_scale
+    return PosteriorGrid(log_tau, u, value), chol, arm_scale
 
 
 def exact_posterior(
     space: SLSSpace, data: SLSData, tau0: float, *, phi0: float = 0.0, draws: int = 4000,
     seed: int = 0,
-) -> tuple[SamplerResult, Grid]:  # fmt: skip
+) -> tuple[SamplerResult, PosteriorGrid]:  # fmt: skip
     """Independent draws of the one-arm SLS posterior (see the module docstring), in the
     coordinates of ``space`` (which must have ``linear="identity"``), and the grid."""
     if space.linear != "identity":

@@ -17,9 +17,9 @@ from pydantic import ValidationError
 from scipy.signal import lfilter
 
 from hmid.families.sindy import SINDySpec
-from hmid.models._intervals import autocov_covariance, residual_correlation
 from hmid.models.sindy import SINDyForceModel, SINDySettings
 from hmid.models.sindy._intervals import percentile_intervals
+from hmid.stats import autocov_covariance, residual_correlation
 
 Z95 = 1.959964
 

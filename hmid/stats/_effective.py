@@ -1,8 +1,12 @@
-"""Tests of nested models on correlated residuals: the extra-sum-of-squares F-test and BIC on the
-effective sample size, and Holm's correction over a round of candidates.
+"""Inference on the effective sample size of a correlated residual: nested-model tests and
+likelihood intervals.
 
-Autocorrelation, the integrated autocorrelation time and parameter intervals are the balance's
-(:mod:`hmid.balance.statistics`): every test here counts ``n_eff = n / tau_int`` samples.
+A residual correlated for tau_int samples (:func:`hmid.stats.residual_tau_int`) carries about
+``n_eff = n / tau_int`` independent samples; a test or likelihood that counted all n would be
+tau_int times too confident. Here: the extra-sum-of-squares F-test and BIC of a bigger model
+against a smaller one on n_eff (:class:`NestedTest`), Holm's correction over a round of candidate
+tests (:func:`holm`), and the profile-likelihood interval of a grid parameter on n_eff
+(:func:`profile_interval`).
 """
 
 from __future__ import annotations
@@ -10,7 +14,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
 
 @dataclass(frozen=True)
@@ -24,6 +27,8 @@ class NestedTest:
 
     @classmethod
     def of(cls, sse0: float, sse1: float, q: int, p1: int, n_eff: float) -> NestedTest:
+        from scipy import stats
+
         if q == 0:  # the candidate adds nothing the model lacks (e.g. a level it already has)
             return cls(0.0, 1.0, 0.0, 0)
         df = max(n_eff - p1, 1.0)
@@ -43,3 +48,14 @@ def holm(p: list[float]) -> np.ndarray:
     out = np.empty_like(p)
     out[order] = adjusted
     return out
+
+
+def profile_interval(
+    grid: np.ndarray, sse: np.ndarray, n_eff: float, confidence: float
+) -> tuple[float, float]:
+    """Grid values whose profile likelihood ratio n_eff ln(SSE/SSE_min) is within the chi²(1)
+    quantile: a likelihood interval at the grid's resolution."""
+    from scipy import stats
+
+    inside = n_eff * np.log(sse / sse.min()) <= stats.chi2.ppf(confidence, 1)
+    return float(grid[inside].min()), float(grid[inside].max())

@@ -1,17 +1,18 @@
-"""Autocorrelation over gaps, integrated time, nested tests and intervals."""
+"""Autocorrelation over gaps, integrated time, nested tests and intervals (hmid.stats)."""
 
 import numpy as np
 import pandas as pd
 from statsmodels.tsa.stattools import acf
 
 from hmid.balance import Signals
-from hmid.balance.statistics import (
+from hmid.stats import (
+    NestedTest,
     autocorrelation,
+    holm,
     integrated_time,
     masked_series,
     profile_interval,
 )
-from hmid.loop.statistics import NestedTest, holm
 
 
 def _data(n: int, rows: np.ndarray, segments: int = 2) -> Signals:
@@ -96,7 +97,7 @@ def _inflated_ols_widths(X: np.ndarray, y: np.ndarray, rows, signals) -> np.ndar
     """Half-widths of the method before: OLS errors inflated by sqrt(tau_int)."""
     import statsmodels.api as sm
 
-    from hmid.balance.statistics import residual_tau_int
+    from hmid.stats import residual_tau_int
 
     fit = sm.OLS(y[rows], X[rows]).fit()
     residual = np.zeros(len(y))

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from hmid.models._ar_white import _expected, fit_ar_white
-from hmid.models._intervals import autocov_covariance, residual_correlation
+from hmid.stats import autocov_covariance, fit_ar_white, residual_correlation
+from hmid.stats._ar_white import _expected
 
 N = 180  # samples of a free fall's sliding segment at 1 kHz
 
