@@ -1,7 +1,8 @@
 """Baseline for the simulator benchmark: the same stick-slip rig step as a plain Python loop.
 
-This is what a researcher would write first (no JAX); it follows hmid.simulate.rig's equations
-(slew-limited valve, SLS muscle, Coulomb stick-slip, semi-implicit Euler) without effects.
+This is what a researcher would write first (no JAX); it follows the equations of
+hmid.simulate.rigs.hydro_muscle (slew-limited valve, SLS muscle, Coulomb stick-slip, semi-implicit
+Euler) without effects.
 """
 
 import math

@@ -20,6 +20,7 @@ from hmid.signal.moving_average import MovingAverage, Window
 from hmid.simulate.params import RigParams
 from hmid.simulate.profiles import RandomLevels
 from hmid.simulate.rig import integrate
+from hmid.simulate.rigs.hydro_muscle import HydroMuscle
 
 ENTROPY = 20261115
 RATE = 1000.0
@@ -36,7 +37,7 @@ def trajectory(seconds: float) -> pd.DataFrame:
     rng = np.random.default_rng(np.random.SeedSequence(ENTROPY, spawn_key=(99,)))
     t = np.arange(int(seconds * RATE)) / RATE
     profile = RandomLevels(low=6e4, high=2e5, hold_min=0.3, hold_max=1.0)
-    traj = integrate(RigParams(), profile.command(t, rng), RATE)
+    traj = integrate(HydroMuscle(RigParams()), {"P_cmd": profile.command(t, rng)}, RATE)
     return pd.DataFrame({"x": traj.x, "v": traj.v, "P": traj.P})
 
 

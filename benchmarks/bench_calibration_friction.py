@@ -60,8 +60,9 @@ from hmid.experiment import ExperimentConfig, load_experiment
 from hmid.friction import FrictionEstimate
 from hmid.pipeline import stages
 from hmid.report.markdown import markdown_table
-from hmid.simulate.dataset import DatasetConfig, FreeFallLog, Simulated, simulate_log
+from hmid.simulate.dataset import Simulated
 from hmid.simulate.datasets import load_dataset_config
+from hmid.simulate.rigs.hydro_muscle_dataset import FreeFallLog, HydroMuscleDataset
 from hmid.simulate.sensors import adc_counts, to_values
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -88,7 +89,7 @@ CASES = (
 )
 
 
-def demo() -> tuple[ExperimentConfig, DatasetConfig]:
+def demo() -> tuple[ExperimentConfig, HydroMuscleDataset]:
     """The demo experiment (denoise, friction, rig) and the demo data set (free-fall logs)."""
     return (
         load_experiment(ROOT / "configs/demo.yaml"),
@@ -96,7 +97,7 @@ def demo() -> tuple[ExperimentConfig, DatasetConfig]:
     )
 
 
-def falls(dataset: DatasetConfig, case: Case, index: int, rep: int) -> list[Simulated]:
+def falls(dataset: HydroMuscleDataset, case: Case, index: int, rep: int) -> list[Simulated]:
     """The data set's free-fall logs, simulated with the case's physics and sensors."""
     specs = [s for s in dataset.logs if isinstance(s, FreeFallLog)]
     update: dict = {"effects": ({"kind": "viscous", "b": case.b},) if case.b else ()}
@@ -108,19 +109,19 @@ def falls(dataset: DatasetConfig, case: Case, index: int, rep: int) -> list[Simu
     for j, spec in enumerate(specs):
         seq = np.random.SeedSequence(ENTROPY, spawn_key=(300 + index, rep, j))
         spec = spec.model_copy(update=update | {"seed": int(seq.generate_state(1)[0])})
-        sim = simulate_log(dataset, spec)
+        sim = dataset.simulate(spec)
         if case.phi is not None:
             sim = correlated_x(sim, dataset, case.phi, np.random.default_rng(seq.spawn(1)[0]))
         out.append(sim)
     return out
 
 
-def correlated_x(sim: Simulated, dataset: DatasetConfig, phi: float, rng) -> Simulated:
+def correlated_x(sim: Simulated, dataset: HydroMuscleDataset, phi: float, rng) -> Simulated:
     """``sim`` with x re-measured: true position + AR(1) noise of the sensor's sd, then its ADC."""
     spec = dataset.free_fall_sensors.x
     true = sim.trajectory.x
     x = to_values(adc_counts(true + noise(phi, len(true), spec.noise, rng), spec), spec)
-    return sim.model_copy(update={"log": sim.log.with_channels(x=x)})
+    return sim._replace(log=sim.log.with_channels(x=x))
 
 
 def identify(config: ExperimentConfig, sims: list[Simulated]) -> FrictionEstimate:

@@ -67,11 +67,11 @@ print(json.dumps({"wall": wall, "stages": stages, "families": families, "rss_mb"
 
 
 def dataset(folder: Path, duration: float) -> Path:
-    from hmid.simulate.dataset import DatasetConfig
+    from hmid.simulate.rigs.hydro_muscle_dataset import HydroMuscleDataset
     from hmid.simulate.write import write_dataset
 
     half = duration / 2
-    config = DatasetConfig.model_validate(
+    config = HydroMuscleDataset.model_validate(
         {
             "seed": 7,
             "logs": [

@@ -22,6 +22,7 @@ from hmid.models.sindy import EquationOfMotion, SINDyForceModel, SINDySettings, 
 from hmid.simulate.params import MuscleParams, RigParams
 from hmid.simulate.profiles import Chirp
 from hmid.simulate.rig import integrate
+from hmid.simulate.rigs.hydro_muscle import HydroMuscle
 
 RIG = RigParams(muscle=MuscleParams(k2=0.0))  # no memory: the truth is in the library
 TRUE = {"x": -3000.0, "P": 2e-4, "x^3": -2e6}
@@ -30,7 +31,7 @@ RATE = 1000.0
 
 def truth_frame(seconds: float, seed: int = 0, noise: float = 0.01) -> pd.DataFrame:
     t = np.arange(1, int(seconds * RATE) + 1) / RATE
-    traj = integrate(RIG, Chirp(f0=0.2, f1=3.0).command(t, None), RATE)
+    traj = integrate(HydroMuscle(RIG), {"P_cmd": Chirp(f0=0.2, f1=3.0).command(t, None)}, RATE)
     m = RIG.muscle
     force = m.A_eff * traj.P + m.F0 - m.k1 * traj.x - m.k3 * traj.x**3
     rng = np.random.default_rng(seed)
@@ -112,13 +113,13 @@ def sensor_chain(seed: int, smooth_s: float, derivative_s: float) -> pd.DataFram
     from hmid.balance.prepare import prepare
     from hmid.denoise import denoise_log
     from hmid.experiment import MovingAverageSpec, SavitzkyGolaySpec
-    from hmid.simulate.dataset import DatasetConfig, DynamicLog, simulate_log
+    from hmid.simulate.rigs.hydro_muscle_dataset import DynamicLog, HydroMuscleDataset
 
     profile = {"kind": "chirp", "f0": 0.2, "f1": 3.0}
-    config = DatasetConfig(
+    config = HydroMuscleDataset(
         seed=seed, rig=RIG, logs=[DynamicLog(name="chirp", duration=30, profile=profile)]
     )
-    log = simulate_log(config, config.logs[0]).log
+    log = config.simulate(config.logs[0]).log
     smoother = MovingAverageSpec(window_s=smooth_s).build()
     differentiator = SavitzkyGolaySpec(window_s=derivative_s).build()
     log = denoise_log(log, smoother, differentiator, channels=("x", "P", "F"))

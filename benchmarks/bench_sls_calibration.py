@@ -36,6 +36,7 @@ from hmid.signal.moving_average import MovingAverage, Window
 from hmid.simulate.params import RigParams
 from hmid.simulate.profiles import Chirp, RandomLevels
 from hmid.simulate.rig import integrate
+from hmid.simulate.rigs.hydro_muscle import HydroMuscle
 
 DATASETS, QUICK_DATASETS = 40, 3  # per noise model
 SIGMA_SENSOR = 0.05  # N, white load-cell noise before the smoothing (the "smoothed" case)
@@ -55,7 +56,7 @@ def make_data(seed: int, n: int, noise: str, sigma: float = 0.02, phi: float = 0
              for k, v in TRUTH.items()}  # fmt: skip
     t = np.arange(1, n + 1) / 1000.0
     profile = RandomLevels(low=6e4, high=2e5, hold_min=0.3, hold_max=1.0) if seed % 2 else Chirp()
-    traj = integrate(RigParams(), profile.command(t - t[0], rng), 1000.0)
+    traj = integrate(HydroMuscle(RigParams()), {"P_cmd": profile.command(t - t[0], rng)}, 1000.0)
     model = SLSModel("cubic", 1, "ar1" if noise == "ar1" else "iid")
     force = model.predict(
         truth, sls_data([pd.DataFrame({"t": t, "x": traj.x, "P": traj.P, "F": 0.0, "use": True})])

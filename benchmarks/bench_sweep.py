@@ -47,11 +47,11 @@ VARIANTS = ("quadratic_xv", "cubic_xvP", "cubic_xv", "quadratic_xvP")  # thesis 
 def workspace(root: Path, variants: int) -> Path:
     """Simulated logs, a polynomial-only experiment with ``variants`` model variants and the
     16-run sweep config on it; returns the sweep config's path."""
-    from hmid.simulate.dataset import DatasetConfig
+    from hmid.simulate.rigs.hydro_muscle_dataset import HydroMuscleDataset
     from hmid.simulate.write import write_dataset
 
     if not (root / "data").is_dir():
-        write_dataset(DatasetConfig.model_validate(DATASET), root / "data")
+        write_dataset(HydroMuscleDataset.model_validate(DATASET), root / "data")
     logs = [
         {"path": f"data/{name}.csv", "columns": f"data/columns-{role}.yaml", "role": role}
         for name, role in (("sine", "dynamic"), ("chirp", "dynamic"),

@@ -25,7 +25,8 @@ from hmid.io import ChannelSpec, ColumnMap, read_log
 from hmid.signal import moving_average
 from hmid.simulate.params import RigParams
 from hmid.simulate.profiles import Sine
-from hmid.simulate.rig import equilibrium, integrate
+from hmid.simulate.rig import integrate
+from hmid.simulate.rigs.hydro_muscle import HydroMuscle, equilibrium
 
 
 def bench_simulator(rows):
@@ -33,11 +34,14 @@ def bench_simulator(rows):
     for seconds, repeats, base_repeats in ((6.0, 5, 3), (60.0, 5, 0)):
         t = np.arange(1, int(seconds * rate) + 1) / rate
         P_cmd = Sine().command(t, None)
-        hmid_t = median_time(lambda P=P_cmd: integrate(rig, P, rate, substeps=substeps), repeats)
+        hmid_t = median_time(
+            lambda P=P_cmd: integrate(HydroMuscle(rig), {"P_cmd": P}, rate, substeps=substeps),
+            repeats,
+        )
         if base_repeats:
             x0 = equilibrium(rig, float(P_cmd[0]))
             x_ref = integrate_python(rig, P_cmd, rate, x0, substeps)
-            x_hmid = integrate(rig, P_cmd, rate, substeps=substeps).x
+            x_hmid = integrate(HydroMuscle(rig), {"P_cmd": P_cmd}, rate, substeps=substeps).x
             agree = float(np.max(np.abs(x_ref - x_hmid)))
             base_t = median_time(
                 lambda P=P_cmd, x0=x0: integrate_python(rig, P, rate, x0, substeps), base_repeats

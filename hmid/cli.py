@@ -33,7 +33,8 @@ def _simulate(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from hmid.files import fresh_dir
-    from hmid.simulate.datasets import load_dataset_config, write_any
+    from hmid.simulate.datasets import load_dataset_config
+    from hmid.simulate.write import write_dataset
 
     config = load_dataset_config(args.config)
     fresh_dir(args.out, replace=args.replace)  # fail before any work is done
@@ -43,7 +44,7 @@ def _simulate(args: argparse.Namespace) -> int:
             bar.set_postfix_str(name)
             bar.update()
 
-        paths = write_any(config, args.out, replace=args.replace, progress=step)
+        paths = write_dataset(config, args.out, replace=args.replace, progress=step)
     print(f"wrote {len(paths)} simulated entries with their ground truth to {args.out}")
     return 0
 

@@ -65,13 +65,13 @@ def check_template(template: dict, source: str, suite=None) -> None:
 
 def run_case(case: Case, dataset: dict, experiment: dict, source: str) -> dict[str, Any]:
     """One case, in a worker: simulate, analyse through the loop, return the outcome."""
-    from hmid.simulate.dataset import DatasetConfig
+    from hmid.simulate.rigs.hydro_muscle_dataset import HydroMuscleDataset
     from hmid.simulate.write import write_dataset
     from pipelines.identify import analyse
 
     with tempfile.TemporaryDirectory(prefix="hmid-blind-") as tmp:
         folder = Path(tmp) / "data"
-        write_dataset(DatasetConfig.model_validate(dataset_for(dataset, case)), folder)
+        write_dataset(HydroMuscleDataset.model_validate(dataset_for(dataset, case)), folder)
         index = yaml.safe_load((folder / "index.yaml").read_text(encoding="utf-8"))["logs"]
         config = experiment_from(experiment_for(experiment, folder, index), source, folder)
         # findings (an effect may drive a sensor to its rails) go in the outcome, not the console

@@ -8,8 +8,8 @@ from hmid.denoise import denoise_log
 from hmid.errors import LogError
 from hmid.io.log import Log
 from hmid.signal import MovingAverage, SavitzkyGolay, Window
-from hmid.simulate.dataset import DatasetConfig, DynamicLog, simulate_log
 from hmid.simulate.profiles import Sine
+from hmid.simulate.rigs.hydro_muscle_dataset import DynamicLog, HydroMuscleDataset
 
 SMOOTHER = MovingAverage(Window(seconds=0.011))
 DIFF = SavitzkyGolay(Window(seconds=0.051), polyorder=3)
@@ -17,7 +17,7 @@ DIFF = SavitzkyGolay(Window(seconds=0.051), polyorder=3)
 
 def test_velocity_of_a_simulated_log_matches_the_truth():
     spec = DynamicLog(name="s", duration=6.0, profile=Sine())
-    sim = simulate_log(DatasetConfig(seed=4, logs=(spec,)), spec)
+    sim = HydroMuscleDataset(seed=4, logs=(spec,)).simulate(spec)
     out = denoise_log(sim.log, SMOOTHER, DIFF)
     assert {"P_s", "x_s", "F_s", "v", "a_est"} <= set(out.channels)
     assert out.units["v"] == "m/s" and out.units["P_s"] == "Pa"

@@ -21,7 +21,7 @@ from hmid.friction import (
 from hmid.friction._models import _phi
 from hmid.io.log import Log
 from hmid.signal import MovingAverage, SavitzkyGolay, SmoothedFiniteDifference, Window
-from hmid.simulate.dataset import DatasetConfig, FreeFallLog, simulate_log
+from hmid.simulate.rigs.hydro_muscle_dataset import FreeFallLog, HydroMuscleDataset
 
 DIFF = SavitzkyGolay(Window(seconds=0.051), polyorder=3)
 FC_TRUE = 0.35  # N, simulator default F_block + F_pulley
@@ -31,7 +31,7 @@ RIG = FallRig(MASS, WEIGHT)  # M + m1 dragged by m1 g
 
 def _free_fall(seed: int, **kw):
     spec = FreeFallLog(name=f"ff-{seed}", seed=seed, **kw)
-    return simulate_log(DatasetConfig(seed=0, logs=(spec,)), spec)
+    return HydroMuscleDataset(seed=0, logs=(spec,)).simulate(spec)
 
 
 def _inside(ci, value) -> bool:

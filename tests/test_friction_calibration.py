@@ -12,8 +12,8 @@ import pytest
 
 from hmid.experiment import load_experiment
 from hmid.pipeline import stages
-from hmid.simulate.dataset import FreeFallLog, simulate_log
 from hmid.simulate.datasets import load_dataset_config
+from hmid.simulate.rigs.hydro_muscle_dataset import FreeFallLog
 
 ROOT = Path(__file__).resolve().parents[1]
 ENTROPY = 20261115  # as benchmarks/_calibration.py
@@ -36,7 +36,7 @@ def replicate(config, dataset, rep: int):
     load = {}
     for j, spec in enumerate(specs):
         seq = np.random.SeedSequence(ENTROPY, spawn_key=(400, rep, j))
-        log = simulate_log(dataset, spec.model_copy(update={"seed": int(seq.generate_state(1)[0])}))
+        log = dataset.simulate(spec.model_copy(update={"seed": int(seq.generate_state(1)[0])}))
         load[spec.name] = stages.LoadedLog(spec.name, "free_fall", log.log)
     return stages.friction(config, stages.denoise(config, load))
 

@@ -1,246 +1,142 @@
-"""Time integration of the Ch. 4 rig: block M and hanging mass m1 driven by the muscle (eq. 4.1).
+"""What a simulated rig is: the interface every rig implements, one integrator, one trajectory.
 
-Motion along the rail obeys  (M + m1) a = F_m - m1 g - f,  where f is rail + pulley friction.
-Friction follows a stick-slip (Karnopp-style) law, so the block stops and stays stopped while the
-applied force is below the breakaway level, and never chatters through zero velocity:
+A rig (:mod:`hmid.simulate.rigs`) states its physics and nothing else:
 
-* stuck: the block stays at rest while |F_m - m1 g| <= F_s; above it, it starts to slide against the
-  friction level at v = 0+ in the direction of the applied force;
-* sliding: a = (F_app - f(v)) / (M + m1); if the velocity reaches zero within a step, the rest of
-  the step is treated as stuck: the block stays at rest, or breaks away in the direction of the
-  applied force if that exceeds the breakaway level.
+* its parameters, traced as a pytree (``prepare``: new values do not recompile);
+* its state and one sample's step (``sample``): the state after the sampling interval and the
+  outputs logged for it, advanced in the rig's own ``substeps`` (in JAX, float64);
+* what a trajectory holds (``signals``) and how raw outputs become those signals, with the rig's
+  physical checks (``trajectory``).
 
-Semi-implicit Euler with ``substeps`` steps per sample; the Maxwell arm's force q is advanced
-exactly for constant velocity over a step. Effects (:mod:`hmid.simulate.effects`) add friction,
-scale the latex's springs or add muscle forces (a dashpot: explicit, at the step's start
-velocity). Accelerations and forces are logged from the last substep before each sample instant
-(a sample-and-hold reading, time-aligned to within one substep), so F_m - m1 g - friction =
-(M + m1) a holds exactly at every logged sample. The pressure follows the command through the
-valve's slew-limited first-order lag. The loop runs in ``jax.lax.scan`` in float64: a 60 s log at
-1 kHz with 20 substeps takes well under a second after compilation.
+:func:`integrate` does the rest, once for every rig: the scan over samples under ``jax.jit``
+(compiled once per rig, log length and substep count), float64, the sample times, and the check
+that the run stayed finite. The rig's data sets (its logs, sensors and truth record) follow the
+contract of :mod:`hmid.simulate.dataset`; :mod:`hmid.simulate.write` writes any of them.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
 
 import jax
-import jax.numpy as jnp
 import numpy as np
-from scipy.optimize import brentq
 
 from hmid.errors import SimulationError
-from hmid.simulate.effects import Effect
-from hmid.simulate.params import RigParams
 
 
-class _Constants(NamedTuple):
-    """Rig parameters as a pytree of floats (traced, so new values do not recompile)."""
+@dataclass(frozen=True)
+class Trajectory:
+    """True signals of a simulated rig at the sample instants ``t`` (SI units), by name.
 
-    A_eff: float
-    F0: float
-    k1: float
-    k3: float
-    k2: float
-    tau: float
-    Fc: float
-    static_ratio: float
-    M: float
-    m1: float
-    g: float
-    x_min: float
-    x_max: float
-    valve_tau: float
-    slew: float
-    connected: float  # 1.0 with the muscle attached, 0.0 for free-fall tests
-
-
-class Trajectory(NamedTuple):
-    """True rig signals at the sample instants (SI units)."""
+    ``traj.x`` reads the signal ``x``; which signals there are is the rig's ``signals``.
+    """
 
     t: np.ndarray
-    P_cmd: np.ndarray
-    P: np.ndarray  # true gauge pressure in the muscle
-    x: np.ndarray
-    v: np.ndarray
-    a: np.ndarray  # acceleration (in the last substep before the sample instant)
-    F_m: np.ndarray  # muscle force (in the last substep)
-    friction: np.ndarray  # friction force (in the last substep; signed, along +x)
-    q: np.ndarray  # Maxwell-arm force
-    stuck: np.ndarray  # block at rest at the sample instant
-    contact: np.ndarray  # block touched an end stop during the interval
-    tension_min: np.ndarray  # least string tension m1 (g + a) within the interval
+    signals: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        if name.startswith("__") or name == "signals":  # copy/pickle probes, early lookups
+            raise AttributeError(name)
+        try:
+            return self.signals[name]
+        except KeyError:
+            raise AttributeError(f"the trajectory has no signal {name!r}") from None
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.signals)
+
+    def replace(self, **changes: np.ndarray) -> Trajectory:
+        """A copy with some signals (or ``t``) replaced."""
+        t = changes.pop("t", self.t)
+        unknown = set(changes) - set(self.signals)
+        if unknown:
+            raise KeyError(f"the trajectory has no signals {sorted(unknown)}")
+        return Trajectory(t, {**self.signals, **changes})
 
 
-def _constants(rig: RigParams, connected: bool) -> _Constants:
-    m, f, vlv = rig.muscle, rig.friction, rig.valve
-    return _Constants(
-        m.A_eff, m.F0, m.k1, m.k3, m.k2, m.tau, f.coulomb, f.static_ratio, rig.M, rig.m1, rig.g,
-        rig.x_min, rig.x_max, vlv.tau, vlv.slew, 1.0 if connected else 0.0,
-    )  # fmt: skip
+class SimulatedRig(ABC):
+    """A rig that :func:`integrate` can run; subclass it for a new rig.
+
+    Class attributes: ``name`` (for messages), ``inputs`` (the per-sample inputs it reads; the
+    first is required, the others default), ``signals`` (what its trajectory holds: name ->
+    meaning), ``first_sample`` (sample k is logged at t = (k + first_sample) / rate: 1 for a rig
+    that logs the state at the end of each interval, 0 at its start), ``finite`` (the raw outputs
+    that must stay finite) and ``diverged`` (what to check when they do not).
+    """
+
+    name: ClassVar[str]
+    inputs: ClassVar[tuple[str, ...]]
+    signals: ClassVar[Mapping[str, str]]
+    first_sample: ClassVar[int] = 0
+    finite: ClassVar[tuple[str, ...]]
+    diverged: ClassVar[str]
+
+    @abstractmethod
+    def prepare(
+        self, inputs: Mapping[str, np.ndarray], rate: float, substeps: int
+    ) -> tuple[Any, Any, Any]:
+        """(params, initial state, per-sample inputs), each a pytree of float64 values.
+
+        ``inputs`` holds the rig's per-sample inputs as NumPy arrays of one length; params carry
+        everything :meth:`sample` needs beside the state, the time steps included.
+        """
+
+    @staticmethod
+    @abstractmethod
+    def sample(params: Any, state: Any, inputs: Any, substeps: int) -> tuple[Any, dict]:
+        """One sampling interval in JAX: the new state, and the outputs logged for the sample."""
+
+    @abstractmethod
+    def trajectory(
+        self,
+        t: np.ndarray,
+        rate: float,
+        inputs: Mapping[str, np.ndarray],
+        out: Mapping[str, np.ndarray],
+    ) -> Trajectory:
+        """The trajectory from the raw outputs (NumPy); raises :class:`SimulationError` where
+        the run breaks the rig's physics."""
 
 
-def _muscle_force(c: _Constants, effects, t, x, v, q, P):
-    stiffness = 1.0
-    for effect in effects:
-        stiffness = stiffness * effect.stiffness(t)
-    force = c.A_eff * P + c.F0 - stiffness * (c.k1 * x + c.k3 * x**3 + q)
-    for effect in effects:  # forces beside the latex's springs (a dashpot), at the step's start
-        force = force + effect.muscle(t, x, v, P)
-    return c.connected * force
+def _scan(sample: Callable, params, init, inputs, substeps: int):
+    def step(state, xs):
+        return sample(params, state, xs, substeps)
 
-
-def _substep(c: _Constants, effects, dt, held, P_cmd, state):
-    t, x, v, q, P, stuck = state
-    # exact first-order step (stable for any tau), then the valve's flow limit
-    target = P_cmd + (P - P_cmd) * jnp.exp(-dt / c.valve_tau)
-    P = P + jnp.clip(target - P, -c.slew * dt, c.slew * dt)
-    F_app = _muscle_force(c, effects, t, x, v, q, P) - c.m1 * c.g
-    mass = c.M + c.m1
-
-    def slide_force(vel):
-        return jnp.sign(vel) * c.Fc + sum(e.sliding(vel, P, x) for e in effects)
-
-    F_s = c.Fc * c.static_ratio + sum(e.breakaway(P, x) for e in effects)
-    blocked = ((x <= c.x_min) & (F_app < 0)) | ((x >= c.x_max) & (F_app > 0))
-    breaks = (jnp.abs(F_app) > F_s) & ~blocked & ~held
-    f_start = slide_force(jnp.sign(F_app) * 1e-12)
-    f_stuck = jnp.where(breaks, f_start, jnp.where(blocked, 0.0, F_app))
-    friction = jnp.where(stuck, f_stuck, slide_force(v))
-    a = jnp.where(stuck & ~breaks, 0.0, (F_app - friction) / mass)
-
-    v_new = v + a * dt
-    # A sliding block that reaches v = 0 within the step spends the rest of it as a stuck block:
-    # it breaks away again only if the applied force exceeds the breakaway level.
-    reversed_ = ~stuck & (v_new * v < 0)
-    rest = jnp.where(reversed_, v_new / jnp.where(reversed_, a * dt, 1.0), 0.0)  # in (0, 1)
-    rebreaks = reversed_ & (jnp.abs(F_app) > F_s) & ~held
-    v_rebound = (F_app - f_start) / mass * rest * dt
-    v_new = jnp.where(reversed_, jnp.where(rebreaks, v_rebound, 0.0), v_new)
-    v_new = jnp.where(held, 0.0, v_new)
-    x_new = x + v_new * dt
-    contact = (x_new < c.x_min) | (x_new > c.x_max)
-    x_new = jnp.clip(x_new, c.x_min, c.x_max)
-    v_new = jnp.where(contact, 0.0, v_new)
-    stuck_new = jnp.where(stuck, ~breaks, reversed_ & ~rebreaks) | contact | held
-
-    decay = jnp.exp(-dt / c.tau)
-    q_new = q * decay + c.k2 * c.tau * (1.0 - decay) * v_new
-    a_eff = (v_new - v) / dt
-    f_eff = jnp.where(contact | blocked, friction, F_app - mass * a_eff)
-    tension = jnp.where(contact, jnp.inf, c.m1 * (c.g + a_eff))
-    F_m = F_app + c.m1 * c.g
-    return (t + dt, x_new, v_new, q_new, P, stuck_new), (
-        a_eff,
-        f_eff,
-        F_m,
-        contact | blocked,
-        tension,
-    )
-
-
-def _reading(c: _Constants, effects, state):
-    """Acceleration, friction and muscle force *at* the sample instant, from the state the
-    sample logs: forces of the last substep's start would lag the logged position by a
-    substep, which identification reads as negative damping (stiffness x 50 us)."""
-    t, x, v, q, P, stuck = state
-    F_app = _muscle_force(c, effects, t, x, v, q, P) - c.m1 * c.g
-    sliding = jnp.sign(v) * c.Fc + sum(e.sliding(v, P, x) for e in effects)
-    at_stop = ((x <= c.x_min) & (F_app < 0)) | ((x >= c.x_max) & (F_app > 0))
-    # stuck: static friction (or an end stop) holds the applied force
-    friction = jnp.where(stuck, jnp.where(at_stop, 0.0, F_app), sliding)
-    a = jnp.where(stuck, 0.0, (F_app - sliding) / (c.M + c.m1))
-    return a, friction, F_app + c.m1 * c.g
-
-
-def _integrate(c, effects, P_cmd, held, init, dt, substeps: int):
-    def sample(state, inputs):
-        P_c, hold = inputs
-
-        def body(_, carry):
-            st, _, touched, t_min = carry
-            st, (a, f, F_m, contact, tension) = _substep(c, effects, dt, hold, P_c, st)
-            return st, (a, f, F_m), touched | contact, jnp.minimum(t_min, tension)
-
-        zero = jnp.zeros(())
-        state, _, touched, t_min = jax.lax.fori_loop(
-            0, substeps, body, (state, (zero, zero, zero), False, jnp.inf)
-        )
-        a, f, F_m = _reading(c, effects, state)
-        _, x, v, q, P, stuck = state
-        return state, (P, x, v, a, F_m, f, q, stuck, touched, t_min)
-
-    _, out = jax.lax.scan(sample, init, (P_cmd, held))
+    _, out = jax.lax.scan(step, init, inputs)
     return out
 
 
-_integrate_jit = jax.jit(_integrate, static_argnames=("substeps",))
-
-
-def equilibrium(rig: RigParams, P: float, effects: tuple[Effect, ...] = ()) -> float:
-    """Elongation at which the muscle holds the hanging weight at pressure P (no friction)."""
-    m = rig.muscle
-    stiffness = float(np.prod([float(e.stiffness(0.0)) for e in effects])) if effects else 1.0
-
-    def residual(x):
-        force = m.A_eff * P + m.F0 - stiffness * (m.k1 * x + m.k3 * x**3)
-        for effect in effects:  # at rest: a dashpot adds nothing
-            force = force + float(effect.muscle(0.0, x, 0.0, P))
-        return force - rig.m1 * rig.g
-
-    if residual(rig.x_min) <= 0:
-        return rig.x_min
-    if residual(rig.x_max) >= 0:
-        return rig.x_max
-    return brentq(residual, rig.x_min, rig.x_max, xtol=1e-15)
+_scan_jit = jax.jit(_scan, static_argnames=("sample", "substeps"))
 
 
 def integrate(
-    rig: RigParams,
-    P_cmd: np.ndarray,
-    rate: float,
-    *,
-    effects: tuple[Effect, ...] = (),
-    connected: bool = True,
-    x0: float | None = None,
-    held: np.ndarray | None = None,
-    substeps: int = 20,
+    rig: SimulatedRig, inputs: Mapping[str, Any], rate: float, *, substeps: int = 20
 ) -> Trajectory:
-    """Integrate the rig for the commanded pressure sampled at ``rate`` Hz (zero-order hold).
+    """Run ``rig`` for its per-sample ``inputs`` (arrays of one length, by the names the rig
+    reads; None: the rig's default) at ``rate`` Hz, ``substeps`` steps per sample.
 
-    Starts at rest with P = P_cmd[0] and, for a connected muscle, at the static equilibrium
-    unless ``x0`` is given. ``held[k]`` keeps the block clamped during sample k (free-fall release).
-    Raises :class:`SimulationError` if the string would go slack (a < -g), where eq. 4.1 fails.
+    Raises :class:`SimulationError` if the run leaves finite values or breaks the rig's physics.
     """
-    P_cmd = np.asarray(P_cmd, dtype=float)
-    n = len(P_cmd)
-    held = np.zeros(n, dtype=bool) if held is None else np.asarray(held, dtype=bool)
-    if x0 is None:
-        x0 = equilibrium(rig, float(P_cmd[0]), effects) if connected else rig.x_min
-    dt = 1.0 / (rate * substeps)
+    inputs = {k: np.asarray(v) for k, v in inputs.items() if v is not None}
+    unknown = sorted(set(inputs) - set(rig.inputs))
+    if unknown or rig.inputs[0] not in inputs:
+        raise ValueError(
+            f"the {rig.name} rig reads the inputs {list(rig.inputs)} (the first required); "
+            f"got {sorted(inputs)}"
+        )
     with jax.enable_x64(True):
-        init = (
-            jnp.float64(0.0), jnp.float64(x0), jnp.float64(0.0), jnp.float64(0.0),
-            jnp.float64(P_cmd[0]), jnp.bool_(True),
-        )  # fmt: skip
-        out = _integrate_jit(
-            _constants(rig, connected), tuple(effects), jnp.asarray(P_cmd), jnp.asarray(held),
-            init, dt, substeps,
-        )  # fmt: skip
-        out = [np.asarray(o) for o in out]
-    P, x, v, a, F_m, friction, q, stuck, contact, tension = out
-    t = np.arange(1, n + 1) / rate
-    bad = ~(np.isfinite(x) & np.isfinite(v) & np.isfinite(P) & np.isfinite(F_m))
+        params, init, xs = rig.prepare(inputs, rate, substeps)
+        out = _scan_jit(type(rig).sample, params, init, xs, substeps)
+        out = {k: np.asarray(v) for k, v in out.items()}
+    n = len(out[rig.finite[0]])
+    t = np.arange(rig.first_sample, n + rig.first_sample) / rate
+    bad = ~np.logical_and.reduce([np.isfinite(out[k]) for k in rig.finite])
     if bad.any():
         raise SimulationError(
-            f"the simulation left finite values at t = {t[np.argmax(bad)]:.4f} s; check the "
-            "rig parameters (stiffness, masses) and the substeps"
+            f"the {rig.name} simulation left finite values at t = {t[np.argmax(bad)]:.4f} s; "
+            f"{rig.diverged}"
         )
-    slack = np.flatnonzero(tension < 0)
-    if slack.size:
-        k = slack[0]
-        raise SimulationError(
-            f"the string to the hanging mass goes slack at t = {t[k]:.4f} s (a < -g): eq. 4.1 "
-            f"no longer holds; command gentler pressure changes or lower valve.slew"
-        )
-    return Trajectory(t, P_cmd, P, x, v, a, F_m, friction, q, stuck, contact, tension)
+    return rig.trajectory(t, rate, inputs, out)

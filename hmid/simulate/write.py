@@ -1,70 +1,23 @@
-"""Writing simulated data sets to disk as a logger would: data files, column maps, ground truth.
+"""Writing a simulated data set of any rig to disk as a logger would: data, column maps, truth.
 
 A written set holds, per log, ``<name>.csv`` (or ``.parquet``) in the logger's units and
-``<name>.truth.json``; a column map per sensor set (``columns-dynamic.yaml``,
-``columns-free_fall.yaml``, or ``<name>.columns.yaml`` for a log with its own sensors);
-``index.yaml`` listing each log with its kind and column map; ``dataset.yaml``, the resolved
-config that regenerates the set exactly; and for a Ch. 2 relaxation entry its curves (CSV), figure
-(PNG) and numbers (``<name>.truth.json``).
+``<name>.truth.json``; the rig's column maps (:meth:`~hmid.simulate.dataset.RigDataset.column_map`);
+``index.yaml`` listing each log with its kind and column map; and ``dataset.yaml``, the resolved
+config that regenerates the set exactly. Entries that are not logs (the Hydro Muscle rig's Ch. 2
+relaxation runs) write their own files.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
-import numpy as np
 import pandas as pd
 import yaml
 
 from hmid.files import atomic_path, fresh_dir, write_json, write_text
-from hmid.io.units import unit_registry
-from hmid.simulate.dataset import DatasetConfig, DynamicLog, FreeFallLog, Simulated, simulate_log
-from hmid.simulate.params import Sensors
-from hmid.simulate.relaxation import RelaxationRun, write_relaxation
-
-_SI = {"t": "s", "P": "Pa", "x": "m", "F": "N", "u": "N"}
-
-
-def _from_si(values: np.ndarray, channel: str, unit: str) -> np.ndarray:
-    return (
-        unit_registry().Quantity(np.asarray(values, dtype=float), _SI[channel]).to(unit).magnitude
-    )
-
-
-def column_name(channel: str, unit: str) -> str:
-    return f"{channel}_{unit.replace('/', '_per_').replace('^', '')}"
-
-
-def column_map(sensors: Sensors, units: dict[str, str], channels: tuple[str, ...]) -> dict:
-    """The column map (``hmid.io.columns.ColumnMap`` schema) that reads written logs back.
-
-    Each sensed channel carries its ADC's reachable span (lo to hi - 1 LSB) as ``range`` so the
-    loader flags saturated samples.
-    """
-    out = {"t": {"column": column_name("t", units["t"]), "unit": units["t"]}}
-    for name in channels:
-        spec = getattr(sensors, name)
-        lo, hi = _from_si(np.array([spec.lo, spec.hi - spec.lsb]), name, units[name])
-        out[name] = {
-            "column": column_name(name, units[name]),
-            "unit": units[name],
-            # rounded like the written data, so a sample at a rail compares equal to the limit
-            "range": [float(f"{lo:.10g}"), float(f"{hi:.10g}")],
-        }
-    return {"delimiter": ",", "header": True, "channels": out}
-
-
-def write_log(sim: Simulated, folder: Path, config: DatasetConfig) -> Path:
-    """Write one simulated log (data file in the logger's units) and its truth JSON."""
-    units = config.output.units
-    frame = sim.log.to_frame()
-    out = {column_name(c, units[c]): _from_si(frame[c].to_numpy(), c, units[c]) for c in frame}
-    table = pd.DataFrame(out)
-    name = sim.truth["name"]
-    path = write_table(table, folder / f"{name}.{config.output.format}")
-    write_json(folder / f"{name}.truth.json", sim.truth)
-    return path
+from hmid.simulate.dataset import RigDataset
 
 
 def write_table(table: pd.DataFrame, path: Path) -> Path:
@@ -77,6 +30,11 @@ def write_table(table: pd.DataFrame, path: Path) -> Path:
     return path
 
 
+def write_truth(folder: Path, name: str, truth: dict[str, Any]) -> Path:
+    """The log's ground truth, ``<name>.truth.json``, beside (never inside) its data."""
+    return write_json(folder / f"{name}.truth.json", truth)
+
+
 def write_catalogue(folder: Path, maps: dict[str, dict], index: list[dict], resolved: dict) -> None:
     """The column maps, ``index.yaml`` and ``dataset.yaml`` (the resolved config) of a set."""
     for map_name, mapping in maps.items():
@@ -85,34 +43,30 @@ def write_catalogue(folder: Path, maps: dict[str, dict], index: list[dict], reso
     write_text(folder / "dataset.yaml", yaml.safe_dump(resolved, sort_keys=False))
 
 
-def _map_file(config: DatasetConfig, spec: DynamicLog | FreeFallLog) -> tuple[str, dict]:
-    free_fall = isinstance(spec, FreeFallLog)
-    channels = ("x", "F") if free_fall else ("P", "x", "F")
-    if spec.sensors is not None:
-        return f"{spec.name}.columns.yaml", column_map(spec.sensors, config.output.units, channels)
-    sensors = config.free_fall_sensors if free_fall else config.sensors
-    return f"columns-{spec.kind}.yaml", column_map(sensors, config.output.units, channels)
-
-
 def write_dataset(
-    config: DatasetConfig,
+    config: RigDataset,
     folder: str | Path,
     *,
     replace: bool = False,
     progress: Callable[[str], None] | None = None,
 ) -> list[Path]:
-    """Simulate every log of ``config`` into ``folder`` (new or empty, unless ``replace``)."""
+    """Simulate every log of ``config``, whatever its rig, into ``folder`` (new or empty,
+    unless ``replace``); the paths written, one per entry."""
+    if not isinstance(config, RigDataset):
+        raise TypeError(f"not a data-set config: {type(config).__name__}")
     folder = fresh_dir(folder, replace=replace)
     paths, maps, index = [], {}, []
     for spec in config.logs:
         if progress:
             progress(spec.name)
-        if isinstance(spec, RelaxationRun):
-            write_relaxation(spec, folder)
-            paths.append(folder / f"{spec.name}.csv")
+        extra = config.write_extra(spec, folder)
+        if extra is not None:
+            paths.append(extra)
             continue
-        path = write_log(simulate_log(config, spec), folder, config)
-        map_name, mapping = _map_file(config, spec)
+        sim = config.simulate(spec)
+        path = write_table(config.table(sim), folder / f"{spec.name}.{config.output.format}")
+        write_truth(folder, spec.name, sim.truth)
+        map_name, mapping = config.column_map(spec)
         maps[map_name] = mapping
         index.append({"name": spec.name, "kind": spec.kind, "file": path.name, "columns": map_name})
         paths.append(path)

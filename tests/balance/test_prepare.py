@@ -8,8 +8,8 @@ from hmid.balance.prepare import STOPPED_SHARE, prepare
 from hmid.denoise import denoise_log
 from hmid.experiment import DenoiseSection
 from hmid.friction import Coulomb, FallRig, FrictionEstimate
-from hmid.simulate.dataset import DatasetConfig, DynamicLog, simulate_log
 from hmid.simulate.profiles import Sine
+from hmid.simulate.rigs.hydro_muscle_dataset import DynamicLog, HydroMuscleDataset
 
 UNITS = {"x": "m", "P": "Pa", "F": "N", "v": "m/s", "a": "m/s^2", "target": "N"}
 FRICTION = FrictionEstimate.known(Coulomb(), {"Fc": 0.35}, FallRig(0.75, 0.5 * 9.80665))
@@ -18,7 +18,7 @@ FRICTION = FrictionEstimate.known(Coulomb(), {"Fc": 0.35}, FallRig(0.75, 0.5 * 9
 @pytest.fixture(scope="module")
 def simulated():
     spec = DynamicLog(name="sine", duration=6.0, profile=Sine(), seed=5)
-    return simulate_log(DatasetConfig(seed=0, logs=(spec,)), spec)
+    return HydroMuscleDataset(seed=0, logs=(spec,)).simulate(spec)
 
 
 def _signals(sim, rig, window_s=0.011):

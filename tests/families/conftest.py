@@ -6,7 +6,7 @@ import pytest
 import yaml
 
 from hmid.config import load_yaml_model
-from hmid.simulate.dataset import DatasetConfig
+from hmid.simulate.rigs.hydro_muscle_dataset import HydroMuscleDataset
 from hmid.simulate.write import write_dataset
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -28,7 +28,7 @@ def ch4_split(tmp_path_factory):
 
     root = tmp_path_factory.mktemp("families")
     (root / "set.yaml").write_text(DATASET)
-    write_dataset(load_yaml_model(root / "set.yaml", DatasetConfig), root / "data")
+    write_dataset(load_yaml_model(root / "set.yaml", HydroMuscleDataset), root / "data")
     rig = yaml.safe_load((ROOT / "configs/demo.yaml").read_text())["rig"]
     logs = [{"path": f"data/{n}.csv", "columns": "data/columns-dynamic.yaml", "role": "dynamic"}
             for n in ("sine", "chirp")]  # fmt: skip

@@ -12,7 +12,7 @@ from hmid.config import load_yaml_model
 from hmid.errors import ConfigError
 from hmid.experiment import load_experiment
 from hmid.families import FitData
-from hmid.simulate.dataset import DatasetConfig
+from hmid.simulate.rigs.hydro_muscle_dataset import HydroMuscleDataset
 from hmid.simulate.write import write_dataset
 from pipelines.identify import run
 
@@ -46,7 +46,7 @@ EXPERIMENT = {
 def workspace(tmp_path_factory) -> Path:
     root = tmp_path_factory.mktemp("identify")
     (root / "set.yaml").write_text(DATASET)
-    write_dataset(load_yaml_model(root / "set.yaml", DatasetConfig), root / "data")
+    write_dataset(load_yaml_model(root / "set.yaml", HydroMuscleDataset), root / "data")
     return root
 
 

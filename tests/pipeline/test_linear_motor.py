@@ -9,7 +9,8 @@ import pytest
 import yaml
 
 from hmid.experiment import experiment_from, load_experiment
-from hmid.simulate.datasets import load_dataset_config, write_any
+from hmid.simulate.datasets import load_dataset_config
+from hmid.simulate.write import write_dataset
 
 ROOT = Path(__file__).resolve().parents[2]
 TRUTH = {"M": 95.0, "Fv": 200.0, "Fc": 20.0, "offset": -3.0}
@@ -56,7 +57,7 @@ def test_intervals_cover_the_truth_across_seeds(tmp_path):
         ]
         folder.mkdir()
         (folder / "set.yaml").write_text(yaml.safe_dump(data))
-        write_any(load_dataset_config(folder / "set.yaml"), folder / "data")
+        write_dataset(load_dataset_config(folder / "set.yaml"), folder / "data")
         logs = [{"path": f"data/{n}.csv", "columns": "data/columns-dynamic.yaml",
                  "role": "dynamic"} for n in "ab"]  # fmt: skip
         config = experiment_from(experiment | {"logs": logs}, "seed", folder)
@@ -79,7 +80,7 @@ def test_the_loop_finds_direction_dependent_viscous_friction(tmp_path):
         {"name": "b", "duration": 15, "reference": {"rms": 0.015, "cutoff_hz": 3}},
     ]
     (tmp_path / "set.yaml").write_text(yaml.safe_dump(dataset))
-    write_any(load_dataset_config(tmp_path / "set.yaml"), tmp_path / "data")
+    write_dataset(load_dataset_config(tmp_path / "set.yaml"), tmp_path / "data")
     experiment = yaml.safe_load((ROOT / "configs/linear-motor.yaml").read_text())
     logs = [{"path": f"data/{n}.csv", "columns": "data/columns-dynamic.yaml",
              "role": "dynamic"} for n in "ab"]  # fmt: skip

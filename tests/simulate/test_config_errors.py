@@ -8,9 +8,10 @@ import pytest
 from hmid.config import load_yaml_model
 from hmid.errors import ConfigError
 from hmid.io import load_column_map, read_log
-from hmid.simulate.dataset import DatasetConfig
 from hmid.simulate.params import RigParams, ValveParams
 from hmid.simulate.rig import integrate
+from hmid.simulate.rigs.hydro_muscle import HydroMuscle
+from hmid.simulate.rigs.hydro_muscle_dataset import HydroMuscleDataset
 from hmid.simulate.write import write_dataset
 
 GOOD_LOG = "{name: a, kind: dynamic, duration: 1, profile: {kind: sine}}"
@@ -58,7 +59,7 @@ def test_bad_dataset_configs(tmp_path, text, match):
     path = tmp_path / "bad.yaml"
     path.write_text(text)
     with pytest.raises(ConfigError, match=match) as err:
-        load_yaml_model(path, DatasetConfig)
+        load_yaml_model(path, HydroMuscleDataset)
     assert "\n" not in str(err.value)
 
 
@@ -67,14 +68,14 @@ def test_output_into_a_file_is_an_error(tmp_path):
     path.write_text(f"seed: 1\nlogs: [{GOOD_LOG}]\n")
     (tmp_path / "taken").write_text("x")
     with pytest.raises(Exception, match="not a folder"):
-        write_dataset(load_yaml_model(path, DatasetConfig), tmp_path / "taken")
+        write_dataset(load_yaml_model(path, HydroMuscleDataset), tmp_path / "taken")
 
 
 def test_fast_valve_is_stable_even_below_one_substep():
     # The valve lag is stepped exactly, so a time constant shorter than a substep cannot ring.
     rig = RigParams(valve=ValveParams(tau=1e-5, slew=1e9))
     P_cmd = np.where(np.arange(400) < 100, 1.0e5, 1.2e5)
-    traj = integrate(rig, P_cmd, 1000.0, substeps=20)
+    traj = integrate(HydroMuscle(rig), {"P_cmd": P_cmd}, 1000.0, substeps=20)
     np.testing.assert_allclose(traj.P[150:], 1.2e5, rtol=1e-9)
     assert np.all(np.diff(traj.P) >= 0)
 
@@ -89,7 +90,7 @@ def test_saturation_is_flagged_in_any_output_unit(tmp_path, units):
         f"seed: 3\noutput: {{units: {units_yaml}}}\nlogs: [{{name: r, kind: dynamic, "
         "duration: 15, profile: {kind: random_levels, low: 30000, high: 260000, hold_min: 0.3}}]\n"
     )
-    config = load_yaml_model(path, DatasetConfig)
+    config = load_yaml_model(path, HydroMuscleDataset)
     write_dataset(config, tmp_path / "out")
     truth = json.loads((tmp_path / "out/r.truth.json").read_text())
     railed = truth["checks"]["samples_at_adc_rails"]["F"]

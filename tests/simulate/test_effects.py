@@ -4,11 +4,12 @@ import numpy as np
 import pytest
 
 from hmid.errors import ConfigError
-from hmid.simulate.dataset import DatasetConfig, DynamicLog, FreeFallLog, simulate_log
 from hmid.simulate.effects import EFFECTS, make_effect
 from hmid.simulate.params import RigParams, Sensors, SensorSpec
 from hmid.simulate.profiles import Sine
-from hmid.simulate.rig import equilibrium, integrate
+from hmid.simulate.rig import integrate
+from hmid.simulate.rigs.hydro_muscle import HydroMuscle, equilibrium
+from hmid.simulate.rigs.hydro_muscle_dataset import DynamicLog, FreeFallLog, HydroMuscleDataset
 
 SENSORS = Sensors()
 PROFILE = Sine(offset=1.4e5, amplitude=1.0e5, frequency=0.5)
@@ -20,7 +21,7 @@ def _simulate(effects=(), duration=6.0, seed=3, sensors=None):
     spec = DynamicLog(
         name="e", duration=duration, profile=PROFILE, effects=tuple(effects), sensors=sensors
     )
-    return simulate_log(DatasetConfig(seed=seed, logs=(spec,)), spec)
+    return HydroMuscleDataset(seed=seed, logs=(spec,)).simulate(spec)
 
 
 @pytest.fixture(scope="module")
@@ -158,7 +159,7 @@ def test_position_friction_raises_or_lowers_the_breakaway_level(offset, slope, m
     k_local = RIG.muscle.k1 + 3 * RIG.muscle.k3 * x_eq**2
     x0 = x_eq + offset * RIG.friction.coulomb / k_local
     effects = (make_effect({"kind": "position_friction", "slope": slope}),)
-    traj = integrate(RIG, np.full(500, P), 1000.0, effects=effects, x0=x0)
+    traj = integrate(HydroMuscle(RIG, effects=effects, x0=x0), {"P_cmd": np.full(500, P)}, 1000.0)
     assert traj.stuck.all() != moves
 
 
@@ -211,7 +212,7 @@ def test_muscle_damping_adds_minus_c_v_to_the_muscle_force():
 def test_muscle_damping_needs_the_muscle_free_falls_do_not_show_it():
     def fall(effects):
         spec = FreeFallLog(name="ff", duration=0.3, effects=tuple(effects))
-        return simulate_log(DatasetConfig(seed=5, logs=(spec,)), spec)
+        return HydroMuscleDataset(seed=5, logs=(spec,)).simulate(spec)
 
     clean, damped = fall(()), fall([{"kind": "muscle_damping", "c": 6.0}])
     assert clean.log.data.equals(damped.log.data)

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from hmid.simulate.dataset import DatasetConfig
+from hmid.simulate.rigs.hydro_muscle_dataset import HydroMuscleDataset
 from hmid.simulate.write import write_dataset
 
 DATASET = {
@@ -46,7 +46,7 @@ def workspace(tmp_path_factory) -> Path:
     """``data/`` (simulated logs), ``experiments/base.yaml`` (paths relative to its folder),
     ``garbage.csv`` (not a log) and ``sweeps/`` for sweep configs."""
     root = tmp_path_factory.mktemp("sweep")
-    write_dataset(DatasetConfig.model_validate(DATASET), root / "data")
+    write_dataset(HydroMuscleDataset.model_validate(DATASET), root / "data")
     (root / "experiments").mkdir()
     (root / "experiments/base.yaml").write_text(yaml.safe_dump(BASE, sort_keys=False))
     (root / "garbage.csv").write_text("this is,not a log\n1,2\n")

@@ -14,9 +14,10 @@ from hmid.simulate.profiles import Chirp
 @pytest.fixture(scope="session")
 def trajectory():
     from hmid.simulate.rig import integrate
+    from hmid.simulate.rigs.hydro_muscle import HydroMuscle
 
     t = np.arange(1, int(30 * RATE) + 1) / RATE
-    return integrate(RIG, Chirp(f0=0.2, f1=3.0).command(t, None), RATE)
+    return integrate(HydroMuscle(RIG), {"P_cmd": Chirp(f0=0.2, f1=3.0).command(t, None)}, RATE)
 
 
 @pytest.fixture(scope="session")

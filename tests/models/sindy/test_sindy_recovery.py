@@ -135,13 +135,13 @@ def _sensor_chain(seed: int, rig) -> pd.DataFrame:
     from hmid.denoise import denoise_log
     from hmid.experiment import DenoiseSection
     from hmid.friction import Coulomb, FallRig, FrictionEstimate
-    from hmid.simulate.dataset import DatasetConfig, DynamicLog, simulate_log
+    from hmid.simulate.rigs.hydro_muscle_dataset import DynamicLog, HydroMuscleDataset
 
     profile = {"kind": "chirp", "f0": 0.2, "f1": 3.0}
-    config = DatasetConfig(
+    config = HydroMuscleDataset(
         seed=seed, rig=RIG, logs=[DynamicLog(name="chirp", duration=30, profile=profile)]
     )
-    log = simulate_log(config, config.logs[0]).log  # 10-bit ADC, thesis noise levels
+    log = config.simulate(config.logs[0]).log  # 10-bit ADC, thesis noise levels
     smoother, differentiator = DenoiseSection().build()
     log = denoise_log(log, smoother, differentiator, channels=("x", "P", "F"))
     fall = FallRig(RIG.M + RIG.m1, RIG.m1 * RIG.g)

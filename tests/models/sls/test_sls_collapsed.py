@@ -12,6 +12,7 @@ from hmid.models.sls.collapsed import exact_posterior
 from hmid.simulate.params import RigParams
 from hmid.simulate.profiles import Chirp
 from hmid.simulate.rig import integrate
+from hmid.simulate.rigs.hydro_muscle import HydroMuscle
 
 TRUTH = {"A_eff": 2.1e-4, "F0": 0.3, "k1": 3100.0, "k3": 1.9e6, "k2": 1400.0, "tau": 0.18}
 
@@ -19,7 +20,7 @@ TRUTH = {"A_eff": 2.1e-4, "F0": 0.3, "k1": 3100.0, "k3": 1.9e6, "k2": 1400.0, "t
 def _data(seed: int, n: int, noise: str = "iid", sigma: float = 0.02, phi: float = 0.8):
     rng = np.random.default_rng(seed)
     t = np.arange(1, n + 1) / 1000.0
-    traj = integrate(RigParams(), Chirp().command(t - t[0], rng), 1000.0)
+    traj = integrate(HydroMuscle(RigParams()), {"P_cmd": Chirp().command(t - t[0], rng)}, 1000.0)
     frame = pd.DataFrame({"t": t, "x": traj.x, "P": traj.P, "F": 0.0, "use": True})
     force = SLSModel("cubic", 1).predict(TRUTH, sls_data([frame]))
     e = rng.normal(0, sigma, n)

@@ -19,6 +19,7 @@ from hmid.signal.maxwell import SCANS, unit_response
 from hmid.simulate.params import RigParams
 from hmid.simulate.profiles import Chirp
 from hmid.simulate.rig import integrate
+from hmid.simulate.rigs.hydro_muscle import HydroMuscle
 
 
 def _segment(rng, n, use=None, t0=0.0):
@@ -96,7 +97,7 @@ def test_predict_reproduces_the_simulator():
     """
     rig, rate, substeps = RigParams(), 1000.0, 50
     t = np.arange(1, 3001) / rate
-    tr = integrate(rig, Chirp().command(t, None), rate, substeps=substeps)
+    tr = integrate(HydroMuscle(rig), {"P_cmd": Chirp().command(t, None)}, rate, substeps=substeps)
     m = rig.muscle
     frame = pd.DataFrame({"t": tr.t, "x": tr.x, "P": tr.P, "F": tr.F_m, "use": True})
     truth = {"A_eff": m.A_eff, "F0": m.F0, "k1": m.k1, "k3": m.k3, "k2": m.k2, "tau": m.tau}

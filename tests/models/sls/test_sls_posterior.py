@@ -8,6 +8,7 @@ from hmid.models.sls import SamplerConfig, SLSModel, initial_fit, run_sampler, s
 from hmid.simulate.params import RigParams
 from hmid.simulate.profiles import RandomLevels
 from hmid.simulate.rig import integrate
+from hmid.simulate.rigs.hydro_muscle import HydroMuscle
 
 TRUTH = {"A_eff": 2.0e-4, "F0": 0.1, "k1": 3000.0, "k3": 2.0e6, "k2": 1500.0, "tau": 0.2}
 
@@ -18,7 +19,7 @@ def posterior():
     n = 3000
     t = np.arange(1, n + 1) / 1000.0
     profile = RandomLevels(low=6e4, high=2e5, hold_min=0.2, hold_max=0.6)
-    traj = integrate(RigParams(), profile.command(t - t[0], rng), 1000.0)
+    traj = integrate(HydroMuscle(RigParams()), {"P_cmd": profile.command(t - t[0], rng)}, 1000.0)
     model = SLSModel("cubic", 1, "iid")
     frame = pd.DataFrame({"t": t, "x": traj.x, "P": traj.P, "F": 0.0, "use": True})
     force = model.predict(TRUTH, sls_data([frame]))

@@ -12,6 +12,7 @@ from hmid.models.sls.start import StartError, initial_fit
 from hmid.simulate.params import RigParams
 from hmid.simulate.profiles import Chirp
 from hmid.simulate.rig import integrate
+from hmid.simulate.rigs.hydro_muscle import HydroMuscle
 
 
 @pytest.fixture(scope="module")
@@ -20,7 +21,7 @@ def rig_log():
     P, true F_m plus N(0, 0.01 N) noise."""
     rig, rate = RigParams(), 1000.0
     t = np.arange(1, 6001) / rate
-    tr = integrate(rig, Chirp().command(t, None), rate, substeps=50)
+    tr = integrate(HydroMuscle(rig), {"P_cmd": Chirp().command(t, None)}, rate, substeps=50)
     noise = np.random.default_rng(11).normal(0.0, 0.01, t.size)
     frame = pd.DataFrame({"t": tr.t, "x": tr.x, "P": tr.P, "F": tr.F_m + noise, "use": True})
     return rig.muscle, frame

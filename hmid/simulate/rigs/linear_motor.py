@@ -1,4 +1,4 @@
-"""A linear-motor positioning stage under a digital PD position loop (the second hmid rig).
+"""The linear-motor rig: a positioning stage under a digital PD position loop.
 
 A mass M on a linear guide; the motor force u drives it along x (m, v = dx/dt, a = dv/dt). While
 the stage slides, the motor force balances
@@ -7,7 +7,7 @@ the stage slides, the motor force balances
 
 so ``offset`` is the force the motor must supply to hold the stage at rest (a cable carrier, a
 slight tilt), and F_app = u - offset is the net force that accelerates the stage against friction.
-Friction is stick-slip (Karnopp-style, as in :mod:`hmid.simulate.rig`):
+Friction is stick-slip (Karnopp-style, as in :mod:`hmid.simulate.rigs.hydro_muscle`):
 
 * stuck: the stage stays exactly still while |F_app| <= Fs = Fc(x) static_ratio; above it, it
   starts to slide against the Coulomb level in the direction of F_app;
@@ -22,29 +22,31 @@ Fc_slope (x - x_centre), 0).
 The controller runs at the logging rate with a zero-order hold: at t_k it reads the encoder
 (position rounded to ``encoder_step``), and applies u[k] = Kp e[k] + Kd d[k] over [t_k, t_k+1),
 with e = r - x_meas and d a first-order low-pass of the backward difference of e. ``substeps``
-steps per sample in ``jax.lax.scan``, float64, each the trapezoid in the position and in the
-viscous force (so position and forces stay aligned in time: an explicit step would lag them by
-half a substep, which identification reads as a mass and a viscous error); a 30 s log at 1 kHz
-with 20 substeps takes ~0.05 s after compilation (~0.3 s, once per log length).
+steps per sample (run by :func:`hmid.simulate.rig.integrate`), each the trapezoid in the position
+and in the viscous force (so position and forces stay aligned in time: an explicit step would lag
+them by half a substep, which identification reads as a mass and a viscous error); a 30 s log at
+1 kHz with 20 substeps takes ~0.05 s after compilation (~0.3 s, once per log length).
 """
 
 from __future__ import annotations
 
-from typing import Annotated, Any, NamedTuple
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Annotated, Any, ClassVar, NamedTuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 from pydantic import Field
 
-from hmid.errors import SimulationError
 from hmid.simulate.params import _Frozen
+from hmid.simulate.rig import SimulatedRig, Trajectory
 
 Positive = Annotated[float, Field(gt=0)]
 NonNegative = Annotated[float, Field(ge=0)]
 
 
-class StageParams(_Frozen):
+class LinearMotorParams(_Frozen):
     """The stage's mass, friction and offset force (SI units), with the optional effects."""
 
     M: Positive = 95.0  # kg, carriage + payload
@@ -95,19 +97,18 @@ class PDController(_Frozen):
     derivative_cutoff_hz: Positive = 150.0
 
 
-class Trajectory(NamedTuple):
-    """True stage signals at the sample instants t_k = k / rate (SI units)."""
-
-    t: np.ndarray
-    r: np.ndarray  # reference position
-    x: np.ndarray  # true position
-    v: np.ndarray  # true velocity
-    a: np.ndarray  # (v[k+1] - v[k-1]) / (2 dt): mean acceleration over t_k +- dt
-    x_meas: np.ndarray  # encoder reading (what the controller used)
-    u: np.ndarray  # command applied over [t_k, t_k+1) (zero-order hold)
-    u_mean: np.ndarray  # mean applied force over [t_k - dt/2, t_k + dt/2): (u[k-1] + u[k]) / 2
-    stuck: np.ndarray  # stage at rest at t_k
-    sliding: np.ndarray  # slid in one direction, never stuck, throughout [t_k-1, t_k+1)
+#: What a linear-motor trajectory holds at t_k = k / rate (SI units), in its order.
+SIGNALS = {
+    "r": "reference position",
+    "x": "true position",
+    "v": "true velocity",
+    "a": "(v[k+1] - v[k-1]) / (2 dt): mean acceleration over t_k +- dt",
+    "x_meas": "encoder reading (what the controller used)",
+    "u": "command applied over [t_k, t_k+1) (zero-order hold)",
+    "u_mean": "mean applied force over [t_k - dt/2, t_k + dt/2): (u[k-1] + u[k]) / 2",
+    "stuck": "stage at rest at t_k",
+    "sliding": "slid in one direction, never stuck, throughout [t_k-1, t_k+1)",
+}
 
 
 class _Constants(NamedTuple):
@@ -125,6 +126,8 @@ class _Constants(NamedTuple):
     Kd: float
     alpha: float  # derivative low-pass pole, exp(-2 pi f_d dt)
     step: float  # encoder step
+    dt: float  # sampling interval (the controller's period)
+    dt_sub: float  # substep
 
 
 def _substep(c: _Constants, F_app, dt, state):
@@ -155,89 +158,95 @@ def _substep(c: _Constants, F_app, dt, state):
     return x_new, v_new, stuck_new, clean & ~stuck & ~reversed_
 
 
-def _integrate(c: _Constants, r, noise, feedforward, init, dt, substeps: int):
-    dt_sub = dt / substeps
+def _sample(c: _Constants, carry, inputs, substeps: int):
+    x, v, stuck, e_prev, d_prev = carry
+    r_k, noise_k, ff_k = inputs
+    counts = jnp.round((x + noise_k) / c.step)
+    e = r_k - counts * c.step
+    d = c.alpha * d_prev + (1.0 - c.alpha) * (e - e_prev) / c.dt
+    u = ff_k + c.Kp * e + c.Kd * d
+    F_app = u - c.offset
 
-    def sample(carry, inputs):
-        x, v, stuck, e_prev, d_prev = carry
-        r_k, noise_k, ff_k = inputs
-        counts = jnp.round((x + noise_k) / c.step)
-        e = r_k - counts * c.step
-        d = c.alpha * d_prev + (1.0 - c.alpha) * (e - e_prev) / dt
-        u = ff_k + c.Kp * e + c.Kd * d
-        F_app = u - c.offset
+    def body(_, st):
+        return _substep(c, F_app, c.dt_sub, st)
 
-        def body(_, st):
-            return _substep(c, F_app, dt_sub, st)
-
-        x1, v1, stuck1, clean = jax.lax.fori_loop(0, substeps, body, (x, v, stuck, True))
-        return (x1, v1, stuck1, e, d), (x, v, stuck, counts, u, v1, clean)
-
-    _, out = jax.lax.scan(sample, init, (r, noise, feedforward))
-    return out
+    x1, v1, stuck1, clean = jax.lax.fori_loop(0, substeps, body, (x, v, stuck, True))
+    out = {"x": x, "v": v, "stuck": stuck, "counts": counts, "u": u, "v_end": v1, "clean": clean}
+    return (x1, v1, stuck1, e, d), out
 
 
-_integrate_jit = jax.jit(_integrate, static_argnames=("substeps",))
-
-
-def _constants(stage: StageParams, controller: PDController | None, rate: float, step: float):
+def _constants(
+    stage: LinearMotorParams,
+    controller: PDController | None,
+    rate: float,
+    step: float,
+    substeps: int,
+) -> _Constants:
     if controller is None:  # open loop: the feed-forward is the whole command
         Kp = Kd = alpha = 0.0
     else:
         Kp, Kd = controller.Kp, controller.Kd
         alpha = float(np.exp(-2 * np.pi * controller.derivative_cutoff_hz / rate))
+    dt = 1.0 / rate
     return _Constants(
         stage.M, stage.Fv, stage.Fv_neg, stage.Fc, stage.Fc_slope, stage.x_centre, stage.offset,
-        stage.static_ratio, Kp, Kd, alpha, step,
+        stage.static_ratio, Kp, Kd, alpha, step, dt, dt / substeps,
     )  # fmt: skip
 
 
-def integrate(
-    stage: StageParams,
-    controller: PDController | None,
-    r: np.ndarray,
-    rate: float,
-    *,
-    encoder_step: float,
-    position_noise: np.ndarray | None = None,
-    feedforward: np.ndarray | None = None,
-    substeps: int = 20,
-) -> Trajectory:
-    """Run the closed loop for the reference ``r`` sampled at ``rate`` Hz from rest at x = 0.
+@dataclass(frozen=True)
+class LinearMotor(SimulatedRig):
+    """The stage under its PD loop for :func:`~hmid.simulate.rig.integrate`, from rest at x = 0.
 
-    ``position_noise`` (m, per sample) is added to the true position before the encoder rounds
-    it; ``feedforward`` (N, per sample) is added to the PD command; without a controller it is
-    the whole command (open loop). Before t_0 the drive is off (u[-1] = 0). Raises
-    :class:`SimulationError` if the loop diverges.
+    Inputs: the reference ``r`` (m); optionally ``position_noise`` (m, added to the true
+    position before the encoder rounds it) and ``feedforward`` (N, added to the PD command;
+    without a controller it is the whole command: open loop). Before t_0 the drive is off
+    (u[-1] = 0).
     """
-    r = np.asarray(r, dtype=float)
-    n = len(r)
-    noise = np.zeros(n) if position_noise is None else np.asarray(position_noise, dtype=float)
-    ff = np.zeros(n) if feedforward is None else np.asarray(feedforward, dtype=float)
-    dt = 1.0 / rate
-    with jax.enable_x64(True):
+
+    params: LinearMotorParams
+    controller: PDController | None
+    encoder_step: float
+
+    name: ClassVar[str] = "linear-motor"
+    inputs: ClassVar[tuple[str, ...]] = ("r", "position_noise", "feedforward")
+    signals: ClassVar[Mapping[str, str]] = SIGNALS
+    first_sample: ClassVar[int] = 0  # the state at the start of each interval
+    finite: ClassVar[tuple[str, ...]] = ("x", "u", "v_end")
+    diverged: ClassVar[str] = "the controller gains may be unstable at this rate"
+    sample = staticmethod(_sample)
+
+    def prepare(self, inputs, rate, substeps):
+        r = np.asarray(inputs["r"], dtype=float)
+        n = len(r)
+        noise, ff = (inputs.get(k) for k in ("position_noise", "feedforward"))
+        noise = np.zeros(n) if noise is None else np.asarray(noise, dtype=float)
+        ff = np.zeros(n) if ff is None else np.asarray(ff, dtype=float)
         zero = jnp.float64(0.0)
         init = (zero, zero, jnp.bool_(True), zero, zero)
-        c = _constants(stage, controller, rate, encoder_step)
-        out = _integrate_jit(
-            c, jnp.asarray(r), jnp.asarray(noise), jnp.asarray(ff), init, dt, substeps
-        )
-        x, v, stuck, counts, u, v_end, clean = (np.asarray(o) for o in out)
-    t = np.arange(n) / rate
-    bad = ~(np.isfinite(x) & np.isfinite(u) & np.isfinite(v_end))
-    if bad.any():
-        raise SimulationError(
-            f"the stage simulation left finite values at t = {t[np.argmax(bad)]:.4f} s; the "
-            "controller gains may be unstable at this rate"
-        )
-    v_prev = np.r_[0.0, v[:-1]]  # at rest before t_0
-    a = (v_end - v_prev) / (2 * dt)
-    u_mean = 0.5 * (np.r_[0.0, u[:-1]] + u)
-    sliding = np.r_[False, clean[:-1] & clean[1:]]
-    return Trajectory(t, r, x, v, a, counts * encoder_step, u, u_mean, stuck, sliding)
+        c = _constants(self.params, self.controller, rate, self.encoder_step, substeps)
+        return c, init, (jnp.asarray(r), jnp.asarray(noise), jnp.asarray(ff))
+
+    def trajectory(self, t, rate, inputs, out):
+        x, v, u, clean = out["x"], out["v"], out["u"], out["clean"]
+        dt = 1.0 / rate
+        v_prev = np.r_[0.0, v[:-1]]  # at rest before t_0
+        a = (out["v_end"] - v_prev) / (2 * dt)
+        signals = {
+            "r": np.asarray(inputs["r"], dtype=float),
+            "x": x,
+            "v": v,
+            "a": a,
+            "x_meas": out["counts"] * self.encoder_step,
+            "u": u,
+            "u_mean": 0.5 * (np.r_[0.0, u[:-1]] + u),
+            "stuck": out["stuck"],
+            "sliding": np.r_[False, clean[:-1] & clean[1:]],
+        }
+        return Trajectory(t, signals)
 
 
-def balance_residual(stage: StageParams, traj: Trajectory) -> np.ndarray:
+def balance_residual(stage: LinearMotorParams, traj: Trajectory) -> np.ndarray:
     """u_mean - (M a + Fv(v) v + Fc(x) sign(v) + offset) at each sample, on the true motion.
 
     Small at sliding samples (the integrator's substep lag); meaningless where the stage sticks.

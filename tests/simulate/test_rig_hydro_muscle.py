@@ -7,7 +7,8 @@ from scipy.optimize import curve_fit
 from hmid.errors import SimulationError
 from hmid.simulate.params import FrictionParams, MuscleParams, RigParams, ValveParams
 from hmid.simulate.profiles import Constant, Sine, Steps
-from hmid.simulate.rig import equilibrium, integrate
+from hmid.simulate.rig import integrate
+from hmid.simulate.rigs.hydro_muscle import HydroMuscle, equilibrium
 
 RATE = 1000.0
 RIG = RigParams()
@@ -24,7 +25,7 @@ def test_block_below_breakaway_never_moves():
     x_eq = equilibrium(RIG, P)
     k_local = RIG.muscle.k1 + 3 * RIG.muscle.k3 * x_eq**2
     x0 = x_eq + 0.8 * RIG.friction.coulomb / k_local
-    traj = integrate(RIG, np.full(2000, P), RATE, x0=x0)
+    traj = integrate(HydroMuscle(RIG, x0=x0), {"P_cmd": np.full(2000, P)}, RATE)
     assert np.all(traj.x == x0)
     assert np.all(traj.v == 0.0)
     assert traj.stuck.all()
@@ -35,7 +36,7 @@ def test_block_stops_and_stays_stopped_inside_friction_band():
     # the Maxwell arm the muscle creeps and the block follows it, see the next test.)
     rig = RIG.model_copy(update={"muscle": MuscleParams(k2=0.0)})
     P_cmd = np.where(_time(4.0) < 0.5, 5.0e4, 1.0e5)
-    traj = integrate(rig, P_cmd, RATE)
+    traj = integrate(HydroMuscle(rig), {"P_cmd": P_cmd}, RATE)
     final = traj.t > 2.0
     assert traj.stuck[final].all()
     assert np.ptp(traj.x[final]) == 0.0
@@ -49,7 +50,7 @@ def test_creep_under_friction_follows_the_band_edge():
     # With the SLS arm the stuck block's holding force grows as q relaxes; with breakaway =
     # Coulomb it creeps so that |F_m - m1 g| stays at the friction level, moving one way only.
     P_cmd = np.where(_time(6.0) < 0.5, 5.0e4, 1.5e5)
-    traj = integrate(RIG, P_cmd, RATE)
+    traj = integrate(HydroMuscle(RIG), {"P_cmd": P_cmd}, RATE)
     late = traj.t > 2.5  # the step's ringing has died out
     assert np.all(np.diff(traj.x[late]) >= 0)
     net = traj.F_m[late] - RIG.m1 * RIG.g
@@ -81,7 +82,7 @@ def test_load_cell_plus_friction_is_the_muscle_law_eq_4_1_4_2(profile):
     t = _time(3.0)
     P_cmd = profile.command(t, None)
     for substeps in (10, 40):
-        traj = integrate(RIG, P_cmd, RATE, substeps=substeps)
+        traj = integrate(HydroMuscle(RIG), {"P_cmd": P_cmd}, RATE, substeps=substeps)
         load_cell = MASS * traj.a + RIG.m1 * RIG.g
         ok = ~traj.contact
         gap = load_cell[ok] + traj.friction[ok] - _constitutive(RIG, traj)[ok]
@@ -103,7 +104,7 @@ def test_energy_is_conserved_without_losses():
     )
     P = 1.2e5
     x0 = equilibrium(rig, P) + 1e-3
-    traj = integrate(rig, np.full(3000, P), RATE, x0=x0, substeps=20)
+    traj = integrate(HydroMuscle(rig, x0=x0), {"P_cmd": np.full(3000, P)}, RATE, substeps=20)
     E = _energy(rig, traj, P)
     amplitude_energy = 0.5 * (rig.muscle.k1) * (1e-3) ** 2
     # Semi-implicit Euler conserves a shadow energy: the error stays O(omega dt) and bounded.
@@ -114,17 +115,21 @@ def test_coulomb_friction_dissipates_exactly_its_work():
     rig = RIG.model_copy(update={"muscle": MuscleParams(k2=0.0)})
     P = 1.2e5
     x0 = equilibrium(rig, P) + 1.2e-3
-    traj = integrate(rig, np.full(2000, P), RATE, x0=x0, substeps=20)
+    traj = integrate(HydroMuscle(rig, x0=x0), {"P_cmd": np.full(2000, P)}, RATE, substeps=20)
     E = _energy(rig, traj, P)
     path = np.sum(np.abs(np.diff(np.r_[x0, traj.x])))
-    E0 = _energy(rig, traj._replace(x=np.array([x0]), v=np.array([0.0])), P)[0]
+    E0 = _energy(rig, traj.replace(x=np.array([x0]), v=np.array([0.0])), P)[0]
     lost = E0 - E[-1]
     assert lost == pytest.approx(rig.friction.coulomb * path, rel=0.02)
 
 
 def test_free_fall_acceleration_and_load_cell():
     t = _time(0.3)
-    traj = integrate(RIG, np.zeros(len(t)), RATE, connected=False, x0=0.15, held=t < 0.1)
+    traj = integrate(
+        HydroMuscle(RIG, connected=False, x0=0.15),
+        {"P_cmd": np.zeros(len(t)), "held": t < 0.1},
+        RATE,
+    )
     sliding = (t > 0.102) & ~traj.contact
     assert sliding.sum() > 150
     expected = -(RIG.m1 * RIG.g - RIG.friction.coulomb) / MASS
@@ -139,9 +144,17 @@ def test_static_breakaway_excess_holds_then_releases():
     rig = RIG.model_copy(update={"friction": FrictionParams(static_ratio=2.0)})
     x_eq = equilibrium(rig, 1e5)
     k_local = rig.muscle.k1 + 3 * rig.muscle.k3 * x_eq**2
-    held = integrate(rig, np.full(500, 1e5), RATE, x0=x_eq + 1.5 * rig.friction.coulomb / k_local)
+    held = integrate(
+        HydroMuscle(rig, x0=x_eq + 1.5 * rig.friction.coulomb / k_local),
+        {"P_cmd": np.full(500, 1e5)},
+        RATE,
+    )
     assert held.stuck.all()
-    moves = integrate(rig, np.full(500, 1e5), RATE, x0=x_eq + 2.5 * rig.friction.coulomb / k_local)
+    moves = integrate(
+        HydroMuscle(rig, x0=x_eq + 2.5 * rig.friction.coulomb / k_local),
+        {"P_cmd": np.full(500, 1e5)},
+        RATE,
+    )
     assert not moves.stuck.all()
 
 
@@ -149,12 +162,12 @@ def test_slack_string_is_an_error():
     violent = RIG.model_copy(update={"valve": ValveParams(tau=1e-3, slew=1e9)})
     P_cmd = np.where(_time(1.0) < 0.5, 8e5, 0.0)
     with pytest.raises(SimulationError, match="slack"):
-        integrate(violent, P_cmd, RATE, x0=equilibrium(violent, 8e5))
+        integrate(HydroMuscle(violent, x0=equilibrium(violent, 8e5)), {"P_cmd": P_cmd}, RATE)
 
 
 def test_valve_slew_limits_pressure_rate():
     P_cmd = np.where(_time(1.0) < 0.2, 0.0, 3e5)
-    traj = integrate(RIG, P_cmd, RATE)
+    traj = integrate(HydroMuscle(RIG), {"P_cmd": P_cmd}, RATE)
     assert np.max(np.diff(traj.P)) * RATE <= RIG.valve.slew * (1 + 1e-9)
     assert traj.P[-1] == pytest.approx(3e5, rel=1e-6)
 

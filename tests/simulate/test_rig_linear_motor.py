@@ -5,12 +5,18 @@ import pytest
 from scipy.signal import periodogram
 
 from hmid.simulate.reference import Reference
-from hmid.simulate.stage import PDController, StageParams, balance_residual, integrate
+from hmid.simulate.rig import integrate
+from hmid.simulate.rigs.linear_motor import (
+    LinearMotor,
+    LinearMotorParams,
+    PDController,
+    balance_residual,
+)
 
 RATE = 1000.0
 DT = 1.0 / RATE
 STEP = 1e-6
-STAGE = StageParams()
+STAGE = LinearMotorParams()
 FS = STAGE.Fc * STAGE.static_ratio
 
 
@@ -19,13 +25,14 @@ def _reference(duration=15.0, seed=3, **kw):
 
 
 def _closed_loop(stage=STAGE, substeps=20, **kw):
-    return integrate(stage, PDController(), _reference(**kw), RATE, encoder_step=STEP,
-                     substeps=substeps)  # fmt: skip
+    rig = LinearMotor(stage, PDController(), encoder_step=STEP)
+    return integrate(rig, {"r": _reference(**kw)}, RATE, substeps=substeps)
 
 
 def _open_loop(force, stage=STAGE):
     force = np.asarray(force, dtype=float)
-    return integrate(stage, None, np.zeros(len(force)), RATE, encoder_step=STEP, feedforward=force)
+    rig = LinearMotor(stage, None, encoder_step=STEP)
+    return integrate(rig, {"r": np.zeros(len(force)), "feedforward": force}, RATE)
 
 
 def test_logged_force_balances_the_true_motion_on_sliding_samples():
@@ -67,7 +74,7 @@ def test_stage_sticks_at_reversals_and_stays_exactly_still_while_below_breakaway
 
 @pytest.mark.parametrize("static_ratio", [1.0, 2.0])
 def test_open_loop_breakaway_threshold(static_ratio):
-    stage = StageParams(static_ratio=static_ratio)
+    stage = LinearMotorParams(static_ratio=static_ratio)
     Fs = stage.Fc * static_ratio
     for sign in (1.0, -1.0):
         held = _open_loop(np.full(500, stage.offset + sign * 0.99 * Fs), stage)
@@ -97,7 +104,7 @@ def test_stage_stops_without_chattering_and_reverses_through_one_stop():
 
 
 def test_without_friction_the_stage_is_a_pure_mass():
-    stage = StageParams(Fv=0.0, Fc=0.0)
+    stage = LinearMotorParams(Fv=0.0, Fc=0.0)
     traj = _closed_loop(stage)
     # M dv / dt = u - offset exactly over each held sample
     M_a = stage.M * np.diff(traj.v) / DT
@@ -128,7 +135,7 @@ def test_energy_balance_work_in_equals_dissipation_plus_kinetic_energy():
 
 
 def test_direction_dependent_viscous_friction():
-    stage = StageParams(Fv_negative=320.0)
+    stage = LinearMotorParams(Fv_negative=320.0)
     traj = _closed_loop(stage)
     s = traj.sliding
     net = traj.u_mean - stage.M * traj.a - stage.Fc * np.sign(traj.v) - stage.offset
@@ -140,11 +147,11 @@ def test_direction_dependent_viscous_friction():
     assert stage.effects() == [
         {"kind": "direction_viscous", "Fv_positive": 200.0, "Fv_negative": 320.0}
     ]
-    assert StageParams(Fv_negative=200.0).effects() == []  # the same coefficient: no effect
+    assert LinearMotorParams(Fv_negative=200.0).effects() == []  # the same coefficient: no effect
 
 
 def test_position_dependent_coulomb_friction():
-    stage = StageParams(Fc_slope=300.0, x_centre=0.01)
+    stage = LinearMotorParams(Fc_slope=300.0, x_centre=0.01)
     traj = _closed_loop(stage)
     s = traj.sliding
     assert np.ptp(traj.x) > 0.05  # Fc varies by more than 15 N across the log
@@ -182,4 +189,6 @@ def test_unstable_gains_are_a_simulation_error():
 
     wild = PDController(Kp=1e9, Kd=1e6)
     with pytest.raises(SimulationError, match="unstable"):
-        integrate(STAGE, wild, _reference(duration=2.0), RATE, encoder_step=STEP)
+        integrate(
+            LinearMotor(STAGE, wild, encoder_step=STEP), {"r": _reference(duration=2.0)}, RATE
+        )
