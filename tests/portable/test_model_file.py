@@ -12,7 +12,7 @@ from _model_reference import predict as reference_predict
 import hmid
 from hmid.config import load_yaml_model
 from hmid.io import load_column_map, read_log
-from hmid.simulate.dataset import DatasetConfig
+from hmid.simulate.rigs.hydro_muscle_dataset import HydroMuscleDataset
 from hmid.simulate.write import write_dataset
 from pipelines.identify import run
 
@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parents[2]
 def finished(tmp_path_factory):
     root = tmp_path_factory.mktemp("portable")
     (root / "set.yaml").write_text(DATASET)
-    write_dataset(load_yaml_model(root / "set.yaml", DatasetConfig), root / "data")
+    write_dataset(load_yaml_model(root / "set.yaml", HydroMuscleDataset), root / "data")
     config = {
         "name": "portable",
         "seed": 3,
