@@ -52,7 +52,7 @@ STAGES = (
         lambda c: {"loop": c.loop.model_dump(mode="json") if c.loop else None},
     ),
     Stage("export", s.export, ("split", "fit", "friction"), _section("denoise", "fit")),
-    Stage("freerun", s.freerun, ("split", "export")),
+    Stage("freerun", s.freerun, ("split", "fit", "export")),
     Stage("rows", s.rows, ("split",), store=False),
 )
 

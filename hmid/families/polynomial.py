@@ -118,6 +118,12 @@ class FittedPolynomial(FittedModel):
         predicted = self.model.predict(data.frame(self.variables, keys=False), monomials=monomials)
         return predicted if self.sign == 1 else self.sign * predicted
 
+    @property
+    def covariance(self) -> np.ndarray:
+        """The coefficients' covariance (the intervals' estimator), in :meth:`structure`'s
+        order."""
+        return self.model.cov_
+
     def structure(self) -> Structure:
         terms = []
         for k, term in enumerate(self.model.term_set):

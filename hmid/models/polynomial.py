@@ -229,6 +229,7 @@ class PolynomialModel(ForceModel):
         self.scales_ = dict(scales)  # a plain dict: fitted models are pickled by the stage cache
         self.term_names_ = tuple(term.name for term in self._terms)
         self.coef_ = params / factor
+        self.cov_ = cov / np.outer(factor, factor)  # in physical units, as coef_
         self.bse_ = bse / factor
         self.conf_int_ = np.column_stack([params - half, params + half]) / factor[:, None]
         self.condition_number_ = cond

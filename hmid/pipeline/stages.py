@@ -278,7 +278,7 @@ def export(config: ExperimentConfig, split: Split, fit: list[Fitted], friction) 
     return out
 
 
-def freerun(config: ExperimentConfig, split: Split, export: dict) -> dict:
+def freerun(config: ExperimentConfig, split: Split, fit: list[Fitted], export: dict) -> dict:
     """Every exported model run free over the held-out blocks (:mod:`hmid.portable.freerun`),
     by name; a model that cannot run free says why in one line."""
     from hmid.portable import Model
@@ -290,8 +290,16 @@ def freerun(config: ExperimentConfig, split: Split, export: dict) -> dict:
         if isinstance(document, str):
             out[name] = FreeRun(name, (), document)
             continue
-        out[name] = simulate_signals(Model(document), split.signals, spans)
+        fitted = next(m for m in fit if m.name == name)
+        draws = fitted.model.posterior_draws() if _draws(fitted) else None
+        model = Model(document, draws=draws)
+        out[name] = simulate_signals(model, split.signals, spans, draws=FREE_RUN_DRAWS,
+                                     level=FREE_RUN_LEVEL, seed=config.seed)  # fmt: skip
     return out
+
+
+#: Draws of a model's coefficients behind its free run's band, and the band's level.
+FREE_RUN_DRAWS, FREE_RUN_LEVEL = 100, 0.9
 
 
 def file_stem(model_name: str) -> str:

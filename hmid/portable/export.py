@@ -108,9 +108,20 @@ def model_document(
         "agreement": agreement,
         "parameters": _records(table),
         "interval": None if fitted.interval is None else fitted.interval.columns(),
+        "residual": _residual(fitted),
         "equation": fitted.equation,
         "posterior": posterior,
     }
+
+
+def _residual(fitted: Fitted) -> dict:
+    """The training residual's RMS and integrated autocorrelation time [rows]: the force the
+    model leaves unexplained, which a free run's band carries as a disturbance."""
+    summary = fitted.fit_summary
+    tau = summary.tau_int
+    if tau is None and fitted.interval is not None:
+        tau = fitted.interval.tau_int
+    return {"rmse": float(summary.rmse), "tau_int": None if tau is None else float(tau)}
 
 
 def _records(table: pd.DataFrame) -> list[dict]:

@@ -187,7 +187,7 @@ def _solver(eq: Equation, position: str):
 
 @lru_cache(maxsize=32)
 def _compiled(rhs, lhs, names, m, lag_names, position):
-    """A jitted function (ts, y0, inputs, cr, cl, taus, lag_times) -> states at ts."""
+    """A jitted function (ts, y0, inputs, cr, cl, taus, lag_times, noise) -> states at ts."""
     import diffrax
     import jax
     import jax.numpy as jnp
@@ -197,13 +197,14 @@ def _compiled(rhs, lhs, names, m, lag_names, position):
     lag_inputs = tuple(names.index(name) for name in lag_names)
 
     def field(t, y, args):
-        ts, values, cr, cl, taus, lag_times = args
+        ts, values, cr, cl, taus, lag_times, noise = args
 
         def u(name, at):
             return jnp.interp(at, ts, values[names.index(name)])
 
         x, v, q, lag = y[0], y[1], y[2 : 2 + m], y[2 + m :]
         a_r, b_r = _affine(rhs, cr, t, x, v, q, lag, u)
+        a_r = a_r + jnp.interp(t, ts, noise)  # a disturbance force (zero but in a band)
         a_l, b_l = _affine(lhs, cl, t, x, v, q, lag, u)
         a = (a_r - a_l) / (b_l - b_r)
         dq = -q / taus + v
@@ -214,7 +215,7 @@ def _compiled(rhs, lhs, names, m, lag_names, position):
         return jnp.concatenate([jnp.stack([v, a]), dq, dlag])
 
     def explained(t, y, args):
-        ts, values, _, cl, _, _ = args
+        ts, values, _, cl, _, _, _ = args
 
         def u(name, at):
             return jnp.interp(at, ts, values[names.index(name)])
@@ -224,8 +225,8 @@ def _compiled(rhs, lhs, names, m, lag_names, position):
         a_l, b_l = _affine(lhs, cl, t, x, v, q, lag, u)
         return a_l + b_l * dy[1]
 
-    def run(ts, y0, values, cr, cl, taus, lag_times):
-        args = (ts, values, cr, cl, taus, lag_times)
+    def run(ts, y0, values, cr, cl, taus, lag_times, noise):
+        args = (ts, values, cr, cl, taus, lag_times, noise)
         solution = diffrax.diffeqsolve(
             diffrax.ODETerm(field), diffrax.Tsit5(), ts[0], ts[-1], ts[1] - ts[0], y0, args=args,
             saveat=diffrax.SaveAt(ts=ts), stepsize_controller=diffrax.PIDController(
@@ -257,6 +258,7 @@ class BlockRun:
     explained_simulated: np.ndarray | None  # None where the explained quantity is an input
     diverged_at: float | None
     reason: str = ""
+    band: tuple[np.ndarray, np.ndarray] | None = None  # the position's band (lower, upper)
 
 
 def blocks(signals, role: str = "validation") -> list[np.ndarray]:
@@ -283,6 +285,8 @@ class FreeRun:
     model: str
     runs: tuple[BlockRun, ...]
     skipped: str = ""  # why there is no free run (one line)
+    level: float | None = None  # the band's nominal level, where the runs have one
+    band: str = ""  # what the band is made of
 
     def scores(self) -> dict:
         """Fit % of x (NRMSE fit, as MATLAB's compare), RMSE of x and of the explained
@@ -290,7 +294,8 @@ class FreeRun:
         ok = [r for r in self.runs if r.diverged_at is None]
         out = {"free-run blocks": len(self.runs), "diverged": len(self.runs) - len(ok)}
         if not ok:
-            return out | {"fit % (x)": np.nan, "rmse x": np.nan, "rmse explained": np.nan}
+            return out | {"band coverage": np.nan, "fit % (x)": np.nan, "rmse x": np.nan,
+                          "rmse explained": np.nan}  # fmt: skip
         err = np.concatenate([r.x_simulated - r.x_measured for r in ok])
         dev = np.concatenate([r.x_measured - r.x_measured.mean() for r in ok])
         forces = [r for r in ok if r.explained_simulated is not None]
@@ -298,7 +303,15 @@ class FreeRun:
         if forces:
             ferr = np.concatenate([r.explained_simulated - r.explained_measured for r in forces])
             rmse_f = float(np.sqrt(np.mean(ferr**2)))
+        banded = [r for r in ok if r.band is not None]
+        coverage = np.nan
+        if banded:
+            inside = np.concatenate(
+                [(r.band[0] <= r.x_measured) & (r.x_measured <= r.band[1]) for r in banded]
+            )
+            coverage = float(inside.mean())
         return out | {
+            "band coverage": coverage,
             "fit % (x)": float(100 * (1 - np.linalg.norm(err) / np.linalg.norm(dev))),
             "rmse x": float(np.sqrt(np.mean(err**2))),
             "rmse explained": rmse_f,
@@ -339,10 +352,11 @@ class Simulator:
         )
 
     def integrate(self, t, inputs, x0: float, v0: float = 0.0, memory0=None, *,
-                  coefficients=None) -> Trajectory:  # fmt: skip
+                  coefficients=None, disturbance=None) -> Trajectory:  # fmt: skip
         """Run from (x0, v0) and the memory arms' states ``memory0`` (default: at rest) over
         the times ``t``, driven by ``inputs`` (name -> values at ``t``); ``coefficients``
-        replaces :meth:`coefficients` (a posterior draw)."""
+        replaces :meth:`coefficients` (a posterior draw); ``disturbance`` is a force added to
+        the balance's model side at ``t`` (default none)."""
         import jax
         import jax.numpy as jnp
 
@@ -357,9 +371,12 @@ class Simulator:
         lags0 = [values[eq.inputs.index(name), 0] for name, _ in eq.lags]
         y0 = np.concatenate([[x0, v0], memory0, lags0])
         cr, cl, taus, lag_times = coefficients or self.coefficients()
+        noise = np.zeros(len(ts))
+        if disturbance is not None:
+            noise[:n] = disturbance
         with jax.enable_x64(True):
-            ys, force, ok = self.run(*(jnp.asarray(a) for a in (ts, y0, values, cr, cl, taus,
-                                                                 lag_times)))  # fmt: skip
+            arrays = (ts, y0, values, cr, cl, taus, lag_times, noise)
+            ys, force, ok = self.run(*(jnp.asarray(a) for a in arrays))
             ys, force = np.asarray(ys)[:n], np.asarray(force)[:n]
         output = any(k == "accel" for k, _, _ in eq.lhs)
         return Trajectory(np.asarray(t), ys[:, 0], ys[:, 1], force if output else None, bool(ok))
@@ -371,14 +388,78 @@ def simulator(model, v0: float | None = None) -> Simulator:
     return Simulator(eq, model.rig.position, _solver(eq, model.rig.position))
 
 
-def simulate_signals(model, signals, spans, *, v0: float | None = None) -> FreeRun:
+def coefficient_draws(model, sim: Simulator, n: int, seed: int) -> list[tuple] | None:
+    """``n`` draws of the simulator's coefficients from the model's uncertainty: its posterior
+    draws where it has them (the relaxation times drawn with the rest), else a normal with its
+    coefficients' covariance; None where the file has neither."""
+    cr, cl, taus, lags = sim.coefficients()
+    n_terms = len(model.terms)
+    signs = np.array([t.sign for t in model.terms], dtype=float)
+    rng = np.random.default_rng(seed)
+    posterior = model.posterior
+    if posterior is not None:
+        post = posterior.posterior
+        names = [t.name for t in model.terms]
+        arms = [t for t in model.terms if isinstance(t, MemoryTerm)]
+        tau_names = ["tau"] if len(arms) == 1 else [f"tau_{i + 1}" for i in range(len(arms))]
+        if not all(v in post for v in (*names, *tau_names)):
+            return None
+        flat = {v: np.asarray(post[v]).reshape(-1) for v in (*names, *tau_names)}
+        pick = rng.choice(len(flat[names[0]]), size=n, replace=False)
+        out = []
+        for i in pick:
+            draw = cr.copy()
+            draw[:n_terms] = signs * np.array([flat[v][i] for v in names])
+            out.append((draw, cl, np.array([flat[v][i] for v in tau_names]), lags))
+        return out
+    cov = model.covariance
+    if cov is None:
+        return None
+    coef = rng.multivariate_normal(model.coef, cov, size=n, method="eigh")
+    out = []
+    for row in coef:
+        draw = cr.copy()
+        draw[:n_terms] = signs * row
+        out.append((draw, cl, taus, lags))
+    return out
+
+
+def disturbances(model, n: int, draws: int, rng) -> np.ndarray:
+    """``draws`` realisations (rows of ``n`` samples) of the force the model leaves unexplained,
+    as a disturbance of the free run: AR(1) with the training residual's RMS and integrated
+    autocorrelation time tau (phi = (tau - 1) / (tau + 1)); zeros where the file has none."""
+    residual = model.document.get("residual") or {}
+    sigma, tau = residual.get("rmse"), residual.get("tau_int") or 1.0
+    if not sigma:
+        return np.zeros((draws, n))
+    phi = (tau - 1.0) / (tau + 1.0)
+    e = rng.standard_normal((draws, n)) * sigma * np.sqrt(1 - phi**2)
+    from scipy.signal import lfilter
+
+    start = rng.standard_normal(draws) * sigma
+    return lfilter([1.0], [1.0, -phi], e, axis=1, zi=(phi * start)[:, None])[0]
+
+
+def simulate_signals(
+    model, signals, spans, *, v0: float | None = None, draws: int = 0, level: float = 0.9,
+    seed: int = 0,
+) -> FreeRun:  # fmt: skip
     """Free runs of ``model`` on ``signals`` over each span of rows (see :func:`blocks`), each
     from the measured state at its first row (the memory arms' states from the measured
-    position before it)."""
+    position before it); with ``draws``, a ``level`` band of the position from as many draws
+    of the model's coefficients (:func:`coefficient_draws`)."""
     try:
         sim = simulator(model, v0)
     except NotSimulable as err:
         return FreeRun(model.name, (), str(err))
+    sampled, band = None, ""
+    if draws:
+        sampled = coefficient_draws(model, sim, draws, seed)
+        band = "posterior draws" if model.posterior is not None else "coefficient covariance"
+        if sampled is None:
+            sampled, band = [sim.coefficients()] * draws, "no coefficient uncertainty in the file"
+        band += " + the training residual as a disturbance force"
+    rng = np.random.default_rng([seed, 1])
     memory_rows = _memory_states(model, signals)
     position = model.rig.position
     out = []
@@ -387,8 +468,17 @@ def simulate_signals(model, signals, spans, *, v0: float | None = None) -> FreeR
         first = rows[0]
         run = sim.integrate(signals["t"][rows], inputs, signals[position][first],
                             signals["v"][first], [m[first] for m in memory_rows])  # fmt: skip
-        out.append(_block(model.rig, signals, rows, run))
-    return FreeRun(model.name, tuple(out))
+        band = None
+        if sampled:
+            noise = disturbances(model, len(rows), len(sampled), rng)
+            runs = [sim.integrate(signals["t"][rows], inputs, signals[position][first],
+                                  signals["v"][first], [m[first] for m in memory_rows],
+                                  coefficients=c, disturbance=e).x
+                    for c, e in zip(sampled, noise, strict=True)]  # fmt: skip
+            tail = (1 - level) / 2
+            band = tuple(np.nanquantile(np.stack(runs), [tail, 1 - tail], axis=0))
+        out.append(_block(model.rig, signals, rows, run, band))
+    return FreeRun(model.name, tuple(out), level=level if sampled else None, band=band)
 
 
 #: Blocks are padded to a multiple of this many samples (the last one repeated, which the
@@ -415,7 +505,7 @@ def _memory_states(model, signals) -> list[np.ndarray]:
     return out
 
 
-def _block(rig, signals, rows, run: Trajectory) -> BlockRun:
+def _block(rig, signals, rows, run: Trajectory, band=None) -> BlockRun:
     x_meas = signals[rig.position][rows]
     v_meas = signals["v"][rows]
     span = np.ptp(x_meas) or 1e-3
@@ -431,7 +521,7 @@ def _block(rig, signals, rows, run: Trajectory) -> BlockRun:
         reason = f"{state} left the measured range" if outside.any() else "the solver stopped"
     log = str(signals.frame["log"].iloc[rows[0]])
     return BlockRun(log, run.t, x_meas, run.x, signals["explained"][rows], run.explained,
-                    diverged_at, reason)  # fmt: skip
+                    diverged_at, reason, band)  # fmt: skip
 
 
 def free_run(model, log, *, v0: float | None = None) -> FreeRun:

@@ -28,6 +28,8 @@ class Model:
 
     document: dict = field(repr=False)
     path: Path | None = None
+    #: posterior draws held in memory (name -> (chains, draws)), before a file has them
+    draws: dict | None = field(default=None, repr=False)
 
     @property
     def name(self) -> str:
@@ -67,13 +69,16 @@ class Model:
     @cached_property
     def posterior(self):
         """The posterior draws as ArviZ ``InferenceData`` (None where the family has none)."""
+        if self.draws is not None:
+            from hmid.portable.posterior import inference_data
+
+            return inference_data(self.draws)
         name = self.document.get("posterior")
-        if not name:
+        if not name or self.path is None:
             return None
         import arviz as az
 
-        where = Path(name) if self.path is None else self.path.parent / name
-        return az.from_netcdf(where)
+        return az.from_netcdf(self.path.parent / name)
 
     def signals(self, log: Log, name: str = "log"):
         """``log`` (as logged: the rig's channel signs are applied here) as the model reads it:
