@@ -66,7 +66,7 @@ class FitData:
         return FitData(self.signals, self.rig, role)
 
 
-def now(fn: Callable[..., Any], /, *args: Any) -> Callable[[], Any]:
+def at_once(fn: Callable[..., Any], /, *args: Any) -> Callable[[], Any]:
     """``fn(*args)`` run at once; what :attr:`FitContext.beside` does by default."""
     value = fn(*args)
     return lambda: value
@@ -86,7 +86,7 @@ class FitContext:
     workdir: Path
     friction: Any = None  # hmid.friction.FrictionEstimate | None
     force: bool = False
-    beside: Callable[..., Callable[[], Any]] = now
+    beside: Callable[..., Callable[[], Any]] = at_once
 
 
 class FittedModel(ABC):
