@@ -12,10 +12,12 @@ from __future__ import annotations
 
 import atexit
 import os
+import signal
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,7 +26,7 @@ from hmid.errors import ConfigError
 #: ``HMID_WORKERS``: worker processes beside the run (0: everything in the calling process)
 WORKERS_VARIABLE = "HMID_WORKERS"
 
-_POOL: dict[int, ProcessPoolExecutor] = {}
+_POOL: dict[int, _Pool] = {}
 _ALLOWED = [False]  # set by hmid's command line (allow_workers)
 
 
@@ -74,39 +76,89 @@ def _warm(modules: tuple[str, ...]) -> None:
             getattr(module, function)()
 
 
-def _pool(workers: int) -> ProcessPoolExecutor:
-    pool = _POOL.get(workers)
-    if pool is None:
+class _Pool:
+    """A process pool and the worker processes it started (multiprocessing's children that
+    appeared while it was handed a task: the pool spawns them as tasks come), so that they can
+    be stopped without waiting for their tasks."""
+
+    def __init__(self, workers: int) -> None:
         from multiprocessing import get_context
 
-        pool = _POOL[workers] = ProcessPoolExecutor(workers, mp_context=get_context("spawn"))
+        self.executor = ProcessPoolExecutor(
+            workers, mp_context=get_context("spawn"), initializer=_worker_start
+        )
+        self.processes: set = set()
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any) -> Future:
+        from multiprocessing import active_children
+
+        before = set(active_children())
+        with _interrupts_blocked():
+            future = self.executor.submit(fn, *args)
+        self.processes.update(set(active_children()) - before)
+        return future
+
+    def stop(self) -> None:
+        """Kill the workers and reap them. The pool's own thread, which sees them die, closes
+        its queues (unregistering their semaphores from multiprocessing's resource tracker);
+        the interpreter joins that thread at exit."""
+        # futures left uncancelled: the pool's thread marks them broken when it sees the dead
+        # workers, and Python 3.11's raises if they were cancelled
+        self.executor.shutdown(wait=False)
+        for process in self.processes:
+            process.kill()
+        for process in self.processes:
+            process.join(timeout=1.0)
+
+
+@contextmanager
+def _interrupts_blocked() -> Iterator[None]:
+    """SIGINT held back from this thread: a worker started meanwhile inherits it blocked, so
+    that a Ctrl-C while it imports (before :func:`_worker_start`) is not its to report; this
+    process gets it once the block ends. (Where there is no signal mask: nothing.)"""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+
+
+def _worker_start() -> None:
+    """A worker's start. Ctrl-C, which the terminal sends to every process of the command, is
+    the caller's to handle (it stops the workers), not a worker's to report with a traceback.
+    Progress bars (tqdm's, e.g. the sampler's, shown nowhere in a worker) get a lock of this
+    process: tqdm's default, a multiprocessing lock, stays registered with multiprocessing's
+    resource tracker when the worker is killed, and the tracker then warns of a leaked
+    semaphore as the program ends."""
+    import threading
+
+    from tqdm import tqdm
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    tqdm.set_lock(threading.RLock())
+
+
+def _pool(workers: int) -> _Pool:
+    pool = _POOL.get(workers)
+    if pool is None:
+        pool = _POOL[workers] = _Pool(workers)
         if len(_POOL) == 1:
             atexit.register(shutdown)
     return pool
 
 
 def shutdown() -> None:
-    """Stop the workers (when a program is done with them, or to free their memory). They are
-    killed rather than asked to finish: no result is awaited from them, and an interpreter
-    that has loaded JAX and matplotlib takes most of a second to tear itself down. (At exit it
-    comes too late for that: the interpreter first joins the pool's thread, which waits for
-    the workers to finish.)"""
+    """Stop the workers (when a program is done with them, interrupted, or to free their
+    memory). They are killed rather than asked to finish: no result is awaited from them, a
+    task may have minutes left (a family's fit), and an interpreter that has loaded JAX and
+    matplotlib takes most of a second to tear itself down. (At exit it comes too late for
+    that: the interpreter first joins the pool's thread, which waits for the workers to
+    finish.)"""
     while _POOL:
-        pool = _POOL.popitem()[1]
-        processes = list((getattr(pool, "_processes", None) or {}).values())  # no public handle
-        thread = getattr(pool, "_executor_manager_thread", None)  # shutdown() forgets it
-        # futures left uncancelled: the pool's thread marks them broken when it sees the dead
-        # workers, and Python 3.11's raises if they were cancelled
-        pool.shutdown(wait=False)
-        for process in processes:
-            process.kill()
-        # the pool's thread then closes its queues, whose semaphores are unlinked and
-        # unregistered from multiprocessing's resource tracker: a program that exits (os._exit)
-        # between the two makes the tracker warn of a "leaked semaphore" it cannot unlink
-        if thread is not None:
-            thread.join(timeout=2.0)
-        for process in processes:
-            process.join(timeout=1.0)
+        _POOL.popitem()[1].stop()
 
 
 @dataclass
@@ -236,8 +288,17 @@ class Tasks:
         next :class:`Tasks` starts a fresh pool."""
         pool = _POOL.pop(self.workers, None)
         if pool is not None:
-            pool.shutdown(wait=False, cancel_futures=True)
+            pool.executor.shutdown(wait=False, cancel_futures=True)
         self.workers = 0
+
+
+def beside(fn: Callable[..., Any], /, *args: Any) -> Callable[[], Any]:
+    """``fn(*args)`` handed to a free worker while the caller goes on (a family fit's side work,
+    :attr:`hmid.families.FitContext.beside`); the callable returned gives its result, running
+    it in the caller if no worker has begun it."""
+    tasks = Tasks()
+    tasks.submit(fn, *args)
+    return lambda: tasks.results()[0]
 
 
 def draw(tasks: Tasks | None, fn: Callable[..., Any], /, *args: Any) -> None:

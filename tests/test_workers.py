@@ -124,3 +124,15 @@ def test_a_dead_worker_s_figures_are_drawn_here(tmp_path):
     drawing.results()
     assert int(killed.read_text()) == int(later.read_text()) == os.getpid()
     assert drawing.workers == 0
+
+
+def test_shutdown_stops_a_busy_worker_at_once():
+    """The workers are stopped, not waited for: a task may have minutes left."""
+    import multiprocessing
+
+    tasks = Tasks(workers=1).start()
+    tasks.submit(time.sleep, 60.0)
+    started = time.monotonic()
+    workers_module.shutdown()
+    assert time.monotonic() - started < 10.0
+    assert not multiprocessing.active_children()

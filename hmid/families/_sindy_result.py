@@ -11,10 +11,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from hmid.families.base import Extras, FitData, FittedModel
+from hmid.families.base import Extras, FigureSpec, FitData, FittedModel
 from hmid.models.sindy._freerun import EquationOfMotion, FreeRunResult
 from hmid.models.sindy._model import SINDyForceModel
-from hmid.workers import draw
 
 VARIABLES = ("x", "v", "P")
 
@@ -74,7 +73,7 @@ class SINDyResult(FittedModel):
                 terms.append(ConstantTerm(name=name, sign=self.sign))
         return Structure.of(terms)
 
-    def report_extras(self, figures_dir: Path, prefix: str, drawing=None) -> Extras:
+    def report_extras(self) -> Extras:
         force = self.force
         text = [
             "Equation of motion from the rig's declared balance and motion"
@@ -98,10 +97,9 @@ class SINDyResult(FittedModel):
             text.append(self.free_run.text())
             tables.append((self.free_run.table(), "Free run on held-out blocks"))
             if self.free_run.blocks:
-                path = Path(figures_dir) / f"{prefix}_free_run.png"
-                draw(drawing, plot_free_run, self.free_run, path)
-                figures.append((path, "Free run of the discovered equation of motion on "
-                                "held-out blocks: measured vs simulated x"))  # fmt: skip
+                figures.append(FigureSpec(plot_free_run, (self.free_run,), "free_run.png",
+                                          "Free run of the discovered equation of motion on "
+                                          "held-out blocks: measured vs simulated x"))  # fmt: skip
         else:
             text.append(f"Free run: skipped ({self.skipped or 'no held-out block'}).")
         return Extras("\n\n".join(text), tables, figures)

@@ -4,14 +4,13 @@ pipeline rows, states its terms for the loop, and reports its diagnostics."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from hmid.balance import RigSection, Structure
-from hmid.families.base import Extras, FitData, FittedModel
+from hmid.families.base import Extras, FigureSpec, FitData, FittedModel
 from hmid.intervals import IntervalNote
 
 PREDICT_BATCH = 25  # posterior draws predicted at once for the band
@@ -206,18 +205,13 @@ class SLSFitted(FittedModel):
         lower, upper = np.quantile(data.slot_sign * noisy, [tail, 1.0 - tail], axis=1)
         return lower, upper
 
-    def report_extras(self, figures_dir: Path, prefix: str, drawing=None) -> Extras:
+    def report_extras(self) -> Extras:
         from hmid.models.sls.diagnostics import corner_plot, trace_plot
-        from hmid.workers import draw
 
-        r = self.result
-        corner = figures_dir / f"{prefix}_corner.png"
-        draw(drawing, corner_plot, r, corner)
+        r = self.result  # the corner plot, the dearest, is among the first drawn
         if self.method == "exact":
             from hmid.models.sls.diagnostics import grid_plot
 
-            marginal = figures_dir / f"{prefix}_grid.png"
-            draw(drawing, grid_plot, self.grid, marginal)
             text = (
                 f"Exact posterior, {r.n_steps} independent draws in {r.wall_s:.2f} s: the force "
                 "parameters and sigma integrated out analytically (flat prior on A_eff, F0, k1, "
@@ -229,12 +223,14 @@ class SLSFitted(FittedModel):
                 text=text,
                 tables=[],
                 figures=[
-                    (marginal, "Marginal posterior on the grid"),
-                    (corner, "Posterior corner plot (draws)"),
+                    FigureSpec(
+                        grid_plot, (self.grid,), "grid.png", "Marginal posterior on the grid"
+                    ),
+                    FigureSpec(
+                        corner_plot, (r,), "corner.png", "Posterior corner plot (draws)", dear=True
+                    ),
                 ],
             )
-        trace = figures_dir / f"{prefix}_trace.png"
-        draw(drawing, trace_plot, r, trace)
         diag = pd.DataFrame(
             {
                 "parameter": list(r.names),
@@ -252,7 +248,13 @@ class SLSFitted(FittedModel):
             text=text,
             tables=[(diag, "MCMC diagnostics per sampled coordinate")],
             figures=[
-                (trace, "Trace of every walker (burn-in shaded)"),
-                (corner, "Posterior corner plot (sampled coordinates)"),
+                FigureSpec(trace_plot, (r,), "trace.png", "Trace of every walker (burn-in shaded)"),
+                FigureSpec(
+                    corner_plot,
+                    (r,),
+                    "corner.png",
+                    "Posterior corner plot (sampled coordinates)",
+                    dear=True,
+                ),
             ],
         )

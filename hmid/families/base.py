@@ -11,7 +11,7 @@ actuator's force; the ``balance`` family fits the declared terms themselves.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any, ClassVar
@@ -66,16 +66,27 @@ class FitData:
         return FitData(self.signals, self.rig, role)
 
 
+def at_once(fn: Callable[..., Any], /, *args: Any) -> Callable[[], Any]:
+    """``fn(*args)`` run at once; what :attr:`FitContext.beside` does by default."""
+    value = fn(*args)
+    return lambda: value
+
+
 @dataclass(frozen=True)
 class FitContext:
     """What a family may need beyond its config: the experiment seed, a persistent folder (the
     stage cache) for resumable work such as an MCMC chain, the identified free-fall friction
-    (``friction.friction(v)`` in N, or None), and ``force`` (start resumable work afresh)."""
+    (``friction.friction(v)`` in N, or None), and ``force`` (start resumable work afresh).
+
+    ``beside(fn, *args)`` gives a callable that returns ``fn(*args)``: side work a fit needs only
+    later (e.g. a sign check), which the runner may hand to a free worker meanwhile (``fn`` a
+    module-level function and ``args`` picklable); by default it runs at once."""
 
     seed: int
     workdir: Path
     friction: Any = None  # hmid.friction.FrictionEstimate | None
     force: bool = False
+    beside: Callable[..., Callable[[], Any]] = at_once
 
 
 class FittedModel(ABC):
@@ -94,18 +105,36 @@ class FittedModel(ABC):
         """A predictive band (lower, upper) on ``data``'s rows, for models that have one."""
         return None
 
-    def report_extras(self, figures_dir: Path, prefix: str, drawing=None) -> Extras | None:
-        """Extra text, tables and figures for the report (e.g. MCMC diagnostics); figures may
-        be drawn by ``drawing`` (:class:`~hmid.workers.Tasks`, see :func:`~hmid.workers.draw`),
-        whose results the caller takes before it reads them."""
+    def report_extras(self) -> Extras | None:
+        """Extra text, tables and figures for the report (e.g. MCMC diagnostics); the figures
+        are said (:class:`FigureSpec`), and the runner draws them."""
         return None
+
+
+@dataclass(frozen=True)
+class FigureSpec:
+    """A figure for the report, said rather than drawn: ``draw(*args, path)`` writes a PNG at
+    ``path``, which the runner chooses (``figures/<model>_<file>``), drawing it where it likes
+    (in a worker: ``draw`` a module-level function, ``args`` picklable). ``dear``: among the
+    first drawn (e.g. a corner plot of thousands of draws), so that a worker begins it while
+    the run does the rest."""
+
+    draw: Callable[..., Any]
+    args: tuple
+    file: str
+    caption: str
+    dear: bool = False
+
+    def __post_init__(self) -> None:
+        if not self.file.endswith(".png") or Path(self.file).name != self.file:
+            raise ValueError(f"FigureSpec.file must be a PNG file's name, got {self.file!r}")
 
 
 @dataclass(frozen=True)
 class Extras:
     text: str
-    tables: list
-    figures: list
+    tables: list  # (frame, caption)
+    figures: list[FigureSpec]
 
 
 #: Goodness of fit on the training rows, as :func:`hmid.models.base.fit_statistics` computes it.

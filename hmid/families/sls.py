@@ -189,10 +189,9 @@ class SLSSpec(FamilySpec):
         from hmid.models.base import fit_statistics
         from hmid.models.sls import SLSModel, initial_fit, sls_data
         from hmid.models.sls.diagnostics import lag1_autocorrelation, residuals_correlated
-        from hmid.workers import Tasks
 
-        checking = Tasks()  # the sign check does not need the posterior: a worker's, if free
-        checking.submit(_sign_check, self, train)
+        # the sign check does not need the posterior: a worker's, if the runner has one free
+        checked = context.beside(_sign_check, self, train)
         data = sls_data(self._segments(train, "train"))
         use = np.asarray(data.use)
         model = SLSModel(self.spring, self.arms, "iid")
@@ -213,7 +212,7 @@ class SLSSpec(FamilySpec):
                 result, adjustment = sandwich_adjust(result, data, model.space.force)
         else:
             result = self._mcmc(model, data, start, noise, context)
-        (findings,) = checking.results()
+        findings = checked()
         fitted = SLSFitted(
             self,
             noise,

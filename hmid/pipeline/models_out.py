@@ -34,6 +34,39 @@ def write_models(fitted, exported: dict, run_dir: Path) -> dict[str, str]:
     return out
 
 
+def free_run_section(config, free_runs: dict, units, out, drawing):
+    """The free runs' section (None without any) and their table (written as CSV)."""
+    from hmid.report import Figure, Section, Table
+
+    position = config.rig.position
+    table = free_run_table(free_runs, units["target"], position)
+    if not len(table):
+        return None, table
+    out.csv(table, "free_run_scores.csv")
+    label = config.rig.explained.name
+    figure = out.figures / "free_run.png"
+    drawing.submit(plot_free_runs, free_runs, figure, label, units["target"])
+    bands = sorted({f"{r.band} ({100 * r.level:g} %)" for r in free_runs.values() if r.level})
+    text = (
+        f"Each model run **free** over the held-out blocks: {position} simulated from the "
+        "measured inputs and the measured state at each block's start alone, as a controller "
+        "uses the model (diffrax Tsit5, error-controlled; sign(v) regularised as tanh(v / v0) "
+        "with v0 the fit's low-speed cut-off). Fit % is MATLAB's NRMSE fit of the position. "
+        + (f"Bands: {'; '.join(bands)}; their coverage of the measured position is the "
+           "band-coverage column." if bands else "")
+    )  # fmt: skip
+    skipped = [f"{name}: {run.skipped}" for name, run in free_runs.items() if run.skipped]
+    if skipped:
+        text += "\n\n" + "\n".join(f"- {line}" for line in skipped)
+    section = Section(
+        "Free run on held-out data",
+        text=text,
+        tables=(Table(table, "Free-run scores per model (held-out blocks)"),),
+        figures=(Figure(figure, "Measured and simulated position, the longest held-out blocks"),),
+    )
+    return section, table
+
+
 def free_run_table(free_runs: dict, unit: str, position: str | None) -> pd.DataFrame:
     """One row per model: the free run's scores beside what it simulated, or why it did not."""
     rows = []
@@ -46,6 +79,8 @@ def free_run_table(free_runs: dict, unit: str, position: str | None) -> pd.DataF
             f"fit % ({position})": scores.get("fit % (x)", np.nan),
             f"rmse {position} [mm]": 1e3 * scores.get("rmse x", np.nan),
             f"rmse explained [{unit}]": scores.get("rmse explained", np.nan),
+            f"band coverage ({100 * run.level:g} %)" if run.level else "band coverage": scores.get(
+                "band coverage", np.nan),
             "diverged": scores.get("diverged", 0),
             "first divergence [s]": np.nan if first is None else first,
             "note": run.skipped or "; ".join(sorted({r.reason for r in run.runs if r.reason})),
@@ -71,7 +106,10 @@ def plot_free_runs(free_runs: dict, path: Path, label: str, unit: str) -> Path:
         ax.plot(block.t, 1e3 * block.x_measured, color="black", lw=1.4, label="measured")
         for run in runs:
             sim = run.runs[i]
-            ax.plot(sim.t, 1e3 * sim.x_simulated, lw=0.9, label=run.model)
+            (line,) = ax.plot(sim.t, 1e3 * sim.x_simulated, lw=0.9, label=run.model)
+            if sim.band is not None:
+                lower, upper = (1e3 * b for b in sim.band)
+                ax.fill_between(sim.t, lower, upper, color=line.get_color(), alpha=0.25, lw=0)
         ax.set_ylabel("position [mm]")
         ax.set_title(f"{block.log}: free run from {block.t[0]:.2f} s", fontsize=9)
     axes[-1, 0].set_xlabel("t [s]")

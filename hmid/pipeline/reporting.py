@@ -3,6 +3,7 @@ and the report document (Markdown + self-contained HTML)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -150,21 +151,26 @@ def _rig_section(config, units) -> Section:
                    tables=(Table(pd.DataFrame(terms), "Terms of the balance"),))  # fmt: skip
 
 
-def _model_sections(fitted, figures: Path, tables: Path, drawing) -> list[Section]:
-    sections = []
+def _model_sections(fitted, out: _Folders) -> tuple[list[Section], list[tuple[Any, Path]]]:
+    """Each model's parameters and its family's extras; and the figures the families ask for,
+    with the file each is to be drawn to."""
+    sections, wanted = [], []
     for model in fitted:
         safe = model.name.replace(":", "_")
         coefficients = model.coefficient_table()
-        _csv(coefficients, tables / f"coefficients_{safe}.csv")
+        out.csv(coefficients, f"coefficients_{safe}.csv")
         text = f"`{model.equation}`" + "".join(f"\n\n- {note}" for note in model.notes)
         extra_tables, extra_figures = [], []
-        extras = model.model.report_extras(figures, prefix=safe, drawing=drawing)
+        extras = model.model.report_extras()
         if extras is not None:  # e.g. MCMC diagnostics of a Bayesian family
             text += "\n\n" + extras.text if extras.text else ""
             for frame, caption in extras.tables:
-                _csv(frame, tables / f"{safe}_{len(extra_tables)}.csv")
+                out.csv(frame, f"{safe}_{len(extra_tables)}.csv")
                 extra_tables.append(Table(frame, caption))
-            extra_figures = [Figure(path, caption) for path, caption in extras.figures]
+            for spec in extras.figures:
+                path = out.figures / f"{safe}_{spec.file}"
+                wanted.append((spec, path))
+                extra_figures.append(Figure(path, spec.caption))
         sections.append(
             Section(
                 model.name,
@@ -176,185 +182,258 @@ def _model_sections(fitted, figures: Path, tables: Path, drawing) -> list[Sectio
                 figures=tuple(extra_figures),
             )
         )
-    return sections
+    return sections, wanted
 
 
 #: What a worker draws with (a light module: the same plot for every model)
 FIGURE_MODULES = ("matplotlib.figure", "hmid.plots")
 
 
-def write_outputs(
-    config, artifacts: dict[str, Any], run_dir: Path, provenance: dict, drawing=None
-) -> dict:
-    """Write every table, figure, metrics.json and the report; returns the metrics. The model
-    figures are drawn by ``drawing`` (:class:`~hmid.workers.Tasks`; default: its own, started
-    here) beside the rest."""
-    from hmid.workers import Tasks
+@dataclass(frozen=True)
+class _Folders:
+    """A run folder's ``tables/`` and ``figures/``."""
 
-    drawing = Tasks().start(FIGURE_MODULES) if drawing is None else drawing
-    run_dir = Path(run_dir).resolve()  # figure paths must not depend on the working directory
-    tables, figures = run_dir / "tables", run_dir / "figures"
-    tables.mkdir(exist_ok=True)
-    figures.mkdir(exist_ok=True)
-    comparison, fitted, estimate = artifacts["compare"], artifacts["fit"], artifacts["friction"]
-    rows = artifacts["rows"]
-    units = log_units(config)
-    unit, label = units["target"], config.rig.explained.name
-    best = comparison.scores.iloc[0]
+    tables: Path
+    figures: Path
 
+    @classmethod
+    def make(cls, run_dir: Path) -> _Folders:
+        folders = cls(run_dir / "tables", run_dir / "figures")
+        folders.tables.mkdir(exist_ok=True)
+        folders.figures.mkdir(exist_ok=True)
+        return folders
+
+    def csv(self, frame: pd.DataFrame, name: str) -> Path:
+        return _csv(frame, self.tables / name)
+
+
+@dataclass(frozen=True)
+class _Tables:
+    """The run's own tables (each also written as CSV)."""
+
+    data: pd.DataFrame
+    pieces: pd.DataFrame
+    fit: pd.DataFrame
+    findings: pd.DataFrame | None  # None: no physical-sign finding
+
+
+def _tables(artifacts, units, out: _Folders) -> _Tables:
     inventory = artifacts["inventory"]
     data = pd.DataFrame([s.row(units) for s in inventory.summaries])
-    _csv(data, tables / "data_summary.csv")
+    out.csv(data, "data_summary.csv")
     pieces = pd.DataFrame([r.__dict__ for r in inventory.pieces])
-    _csv(pieces, tables / "pieces.csv")
-    fit_table = _fit_table(artifacts, unit)
-    _csv(fit_table, tables / "fit_table.csv")
-    _csv(comparison.scores, tables / "held_out_scores.csv")
-    findings = [f for model in fitted for f in model.findings]
-    findings_table = pd.DataFrame([f.to_dict() for f in findings])
+    out.csv(pieces, "pieces.csv")
+    fit_table = _fit_table(artifacts, units["target"])
+    out.csv(fit_table, "fit_table.csv")
+    out.csv(artifacts["compare"].scores, "held_out_scores.csv")
+    findings = _findings(artifacts)
+    findings_table = None
     if findings:
-        _csv(findings_table, tables / "sign_findings.csv")
+        findings_table = pd.DataFrame([f.to_dict() for f in findings])
+        out.csv(findings_table, "sign_findings.csv")
+    return _Tables(data, pieces, fit_table, findings_table)
 
-    # a worker draws the figures while this process writes the tables and the rest; the
-    # families' own come first, the dearest among them (a posterior's corner plot), so that a
-    # worker begins them while this process, once done, takes back the cheap ones from the end
-    coefficient_sections = _model_sections(fitted, figures, tables, drawing)
-    drawing.submit(plot_scores, comparison.scores, figures / "scores.png", unit)
-    model_figures = []
-    for model in fitted:
-        path = figures / f"model_{model.name.replace(':', '_')}.png"
+
+def _findings(artifacts) -> list:
+    return [f for model in artifacts["fit"] for f in model.findings]
+
+
+def _draw(drawing, wanted, config, artifacts, units, out: _Folders) -> list[Figure]:
+    """Queue every figure of the models with ``drawing``: the families' own first, the dear ones
+    (a posterior's corner plot) before the rest, so that a worker begins them while this
+    process, once done with the tables, takes back the cheap ones from the end. Returns the
+    comparison's figures of each model."""
+    for spec, path in sorted(wanted, key=lambda item: not item[0].dear):  # stable
+        drawing.submit(spec.draw, *spec.args, path)
+    comparison = artifacts["compare"]
+    drawing.submit(plot_scores, comparison.scores, out.figures / "scores.png", units["target"])
+    figures = []
+    for model in artifacts["fit"]:
+        path = out.figures / f"model_{model.name.replace(':', '_')}.png"
         shown = [c for c in comparison.predictions if c in _shown(model.name)]
-        drawing.submit(plot_model, comparison.predictions[shown], model.name, path, label, unit)
-        model_figures.append(Figure(path, f"{model.name} on held-out data (one-step error)"))
+        drawing.submit(plot_model, comparison.predictions[shown], model.name, path,
+                       config.rig.explained.name, units["target"])  # fmt: skip
+        figures.append(Figure(path, f"{model.name} on held-out data (one-step error)"))
+    return figures
 
-    loop_sections, metrics_loop = (), None
-    if artifacts.get("loop") is not None:
-        from hmid.loop.report import loop_section
 
-        section, metrics_loop = loop_section(
-            artifacts["loop"], figures, lambda frame, name: _csv(frame, tables / name),
-            drawing=drawing,
-        )  # fmt: skip
-        loop_sections = (section,)
+def _loop(artifacts, out: _Folders, drawing) -> tuple[tuple[Section, ...], dict | None]:
+    if artifacts.get("loop") is None:
+        return (), None
+    from hmid.loop.report import loop_section
 
-    friction_sections, friction_summary = (), ()
-    if estimate is not None:
-        from hmid.friction import plot_free_fall
+    section, metrics = loop_section(artifacts["loop"], out.figures, out.csv, drawing=drawing)
+    return (section,), metrics
 
-        plot_free_fall(
-            list(inventory.free_falls), estimate, figures / "friction.png", config.rig.position
-        )
-        friction_table = estimate.table()
-        _csv(friction_table, tables / "friction.csv")
-        friction_sections = (
-            Section(
-                "Rig friction from free-fall tests",
-                text=f"Model: {config.friction.model}; sliding segments with |v| > "
-                f"{config.friction.v_min} m/s.\n\n{_friction_text(estimate)}",
-                tables=(Table(friction_table, "Friction per free-fall log and pooled"),),
-                figures=(Figure(figures / "friction.png", "Free-fall motion and fitted model"),),
-            ),
-        )
-        friction_summary = tuple(
-            (f"friction from free falls: {name}",
-             f"{value:.4g} {estimate.units[name]}, {100 * estimate.confidence:.0f} % CI "
-             f"{estimate.ci[name][0]:.4g} … {estimate.ci[name][1]:.4g}")
-            for name, value in estimate.params.items()
-        )  # fmt: skip
-        if estimate.law is not None and estimate.law.rejected:
-            friction_summary += (("friction law", estimate.law.message()),)
 
-    from hmid.pipeline.models_out import free_run_table, plot_free_runs, write_models
+def _friction(config, artifacts, out: _Folders) -> tuple[tuple[Section, ...], tuple]:
+    """The free-fall friction's section (figure drawn here) and summary lines."""
+    estimate = artifacts["friction"]
+    if estimate is None:
+        return (), ()
+    from hmid.friction import plot_free_fall
 
-    model_files = write_models(fitted, artifacts.get("export") or {}, run_dir)
-    free_runs = artifacts.get("freerun") or {}
-    free_table = free_run_table(free_runs, unit, config.rig.position)
-    if len(free_table):
-        _csv(free_table, tables / "free_run_scores.csv")
-        drawing.submit(plot_free_runs, free_runs, figures / "free_run.png", label, unit)
-    flags = list(inventory.flags)
-    n_train, n_val = rows.train, rows.validation
-    error_kind = f"one-step: {label} predicted from the measured signals at each sample"
+    figure = out.figures / "friction.png"
+    free_falls = list(artifacts["inventory"].free_falls)
+    plot_free_fall(free_falls, estimate, figure, config.rig.position)
+    table = estimate.table()
+    out.csv(table, "friction.csv")
+    section = Section(
+        "Rig friction from free-fall tests",
+        text=f"Model: {config.friction.model}; sliding segments with |v| > "
+        f"{config.friction.v_min} m/s.\n\n{_friction_text(estimate)}",
+        tables=(Table(table, "Friction per free-fall log and pooled"),),
+        figures=(Figure(figure, "Free-fall motion and fitted model"),),
+    )
+    summary = tuple(
+        (f"friction from free falls: {name}",
+         f"{value:.4g} {estimate.units[name]}, {100 * estimate.confidence:.0f} % CI "
+         f"{estimate.ci[name][0]:.4g} … {estimate.ci[name][1]:.4g}")
+        for name, value in estimate.params.items()
+    )  # fmt: skip
+    if estimate.law is not None and estimate.law.rejected:
+        summary += (("friction law", estimate.law.message()),)
+    return (section,), summary
+
+
+def _metrics(config, artifacts, units, metrics_loop: dict | None) -> dict:
+    comparison, fitted, estimate = artifacts["compare"], artifacts["fit"], artifacts["friction"]
+    rows, label = artifacts["rows"], config.rig.explained.name
     metrics = {
         "experiment": config.name,
         "rig": config.rig.name,
-        "explained": {"name": label, "unit": unit},
-        "error_kind": error_kind,
-        "best_model": str(best["model"]),
+        "explained": {"name": label, "unit": units["target"]},
+        "error_kind": f"one-step: {label} predicted from the measured signals at each sample",
+        "best_model": str(comparison.scores.iloc[0]["model"]),
         "held_out": comparison.scores.replace({np.nan: None}).to_dict(orient="records"),
         "fit": [{"model": m.name, **m.fit_summary.to_dict(), **_interval(m)} for m in fitted],
         "parameters": {m.name: _parameters(m) for m in fitted if m.family == "balance"},
-        "sign_findings": [f.to_dict() for f in findings],
+        "sign_findings": [f.to_dict() for f in _findings(artifacts)],
         "friction": None if estimate is None else estimate.to_dict(),
-        "rows": {"train": n_train, "validation": n_val, "excluded": rows.excluded},
-        "flags": flags,
-        "model_files": model_files,
-        "free_run": free_table.replace({np.nan: None}).to_dict(orient="records"),
+        "rows": {"train": rows.train, "validation": rows.validation, "excluded": rows.excluded},
+        "flags": list(artifacts["inventory"].flags),
     }
     if metrics_loop is not None:
         metrics["loop"] = metrics_loop
-    write_json(run_dir / "metrics.json", metrics)
+    return metrics
 
+
+def _summary(config, artifacts, unit: str, friction_summary: tuple) -> tuple:
+    """The report's opening lines: the best model, its held-out errors, the verdict and what
+    else the run found."""
+    best, label, rows = (
+        artifacts["compare"].scores.iloc[0],
+        config.rig.explained.name,
+        artifacts["rows"],
+    )
+    findings = _findings(artifacts)
     sign_summary = ()
     if findings:
         sign_summary = (
             ("⚠ physical-sign check", f"{len(findings)} parameter(s) fitted with an impossible "
              "sign: " + "; ".join(f.message() for f in findings)),
         )  # fmt: skip
+    return (
+        ("rig", config.rig.name),
+        ("best model (lowest held-out RMSE)", str(best["model"])),
+        (f"held-out RMSE of {label}, one-step", f"{best['rmse (held-out)']:.4g} {unit}"),
+        (
+            "held-out R² / NRMSE fit",
+            f"{best['r2 (held-out)']:.3f} / {best['nrmse_fit_pct (held-out)']:.1f} %",
+        ),
+        ("held-out max |error|", f"{best['max_abs_error (held-out)']:.4g} {unit}"),
+        ("verdict", _verdict(best)),
+        *sign_summary,
+        *friction_summary,
+        (
+            "rows: train / held-out / excluded",
+            f"{rows.train} / {rows.validation} / {rows.excluded}",
+        ),
+        *loop_summary(artifacts.get("loop")),
+    )
+
+
+def _comparison_section(config, artifacts, tables: _Tables, figures: list[Figure], out) -> Section:
+    label = config.rig.explained.name
+    findings = (
+        () if tables.findings is None else (Table(tables.findings, "Physical-sign findings"),)
+    )
+    return Section(
+        "Model comparison on held-out data",
+        text=f"All errors are **one-step**: {label} (less its known terms) predicted "
+        "from the measured signals at each held-out sample. Held-out rows are the "
+        f"{config.split.kind.replace('_', ' ')} split, never used for fitting. A model "
+        "**with memory** (SLS) carries its internal state through each log from the "
+        "measured position alone, never from the measured force; free-run simulations, "
+        "where a family has them, are in its own section.",
+        tables=(
+            Table(artifacts["compare"].scores, "Held-out errors per model (sorted by RMSE)"),
+            Table(
+                tables.fit, "Table 4.1 for this run: fit on training rows, error on held-out rows"
+            ),
+            *findings,
+        ),
+        figures=(Figure(out.figures / "scores.png", "Held-out RMSE and NRMSE fit"), *figures),
+    )
+
+
+def _data_section(artifacts, tables: _Tables) -> Section:
+    flags = list(artifacts["inventory"].flags)
+    return Section(
+        "Data",
+        text="Findings from validation:\n\n"
+        + ("\n".join(f"- {f}" for f in flags) if flags else "- none"),
+        tables=(
+            Table(tables.data, "Logs as loaded (SI, rig's sign convention) and denoised"),
+            Table(tables.pieces, "Pieces between logger pauses (unused: too short to filter)"),
+        ),
+    )
+
+
+def _portable(config, artifacts, units, run_dir: Path, out: _Folders, drawing) -> tuple:
+    """The model files (``models/``), each model's free run on the held-out blocks (table and
+    figure): the section and the metrics' entries."""
+    from hmid.pipeline.models_out import free_run_section, write_models
+
+    model_files = write_models(artifacts["fit"], artifacts.get("export") or {}, run_dir)
+    section, table = free_run_section(config, artifacts.get("freerun") or {}, units, out, drawing)
+    records = table.replace({np.nan: None}).to_dict(orient="records")
+    return (section,) if section else (), {"model_files": model_files, "free_run": records}
+
+
+def write_outputs(
+    config, artifacts: dict[str, Any], run_dir: Path, provenance: dict, drawing=None
+) -> dict:
+    """Write every table, figure, metrics.json and the report; returns the metrics. The
+    figures the models ask for are drawn by ``drawing`` (:class:`~hmid.workers.Tasks`;
+    default: its own, started here) while this process writes the rest."""
+    from hmid.workers import Tasks
+
+    drawing = Tasks().start(FIGURE_MODULES) if drawing is None else drawing
+    run_dir = Path(run_dir).resolve()  # figure paths must not depend on the working directory
+    out = _Folders.make(run_dir)
+    units = log_units(config)
+    tables = _tables(artifacts, units, out)
+    coefficient_sections, wanted = _model_sections(artifacts["fit"], out)
+    model_figures = _draw(drawing, wanted, config, artifacts, units, out)
+    loop_sections, metrics_loop = _loop(artifacts, out, drawing)
+    friction_sections, friction_summary = _friction(config, artifacts, out)
+    free_sections, portable = _portable(config, artifacts, units, run_dir, out, drawing)
+    metrics = _metrics(config, artifacts, units, metrics_loop) | portable
+    write_json(run_dir / "metrics.json", metrics)
     report = Report(
         title=f"hmid identification report: {config.name}",
-        summary=(
-            ("rig", config.rig.name),
-            ("best model (lowest held-out RMSE)", str(best["model"])),
-            (f"held-out RMSE of {label}, one-step", f"{best['rmse (held-out)']:.4g} {unit}"),
-            (
-                "held-out R² / NRMSE fit",
-                f"{best['r2 (held-out)']:.3f} / {best['nrmse_fit_pct (held-out)']:.1f} %",
-            ),
-            ("held-out max |error|", f"{best['max_abs_error (held-out)']:.4g} {unit}"),
-            ("verdict", _verdict(best)),
-            *sign_summary,
-            *friction_summary,
-            ("rows: train / held-out / excluded", f"{n_train} / {n_val} / {rows.excluded}"),
-            *loop_summary(artifacts.get("loop")),
-        ),
+        summary=_summary(config, artifacts, units["target"], friction_summary),
         sections=(
             _rig_section(config, units),
-            Section(
-                "Model comparison on held-out data",
-                text=f"All errors are **one-step**: {label} (less its known terms) predicted "
-                "from the measured signals at each held-out sample. Held-out rows are the "
-                f"{config.split.kind.replace('_', ' ')} split, never used for fitting. A model "
-                "**with memory** (SLS) carries its internal state through each log from the "
-                "measured position alone, never from the measured force; free-run simulations, "
-                "where a family has them, are in its own section.",
-                tables=(
-                    Table(comparison.scores, "Held-out errors per model (sorted by RMSE)"),
-                    Table(
-                        fit_table,
-                        "Table 4.1 for this run: fit on training rows, error on held-out rows",
-                    ),
-                    *((Table(findings_table, "Physical-sign findings"),) if findings else ()),
-                ),
-                figures=(
-                    Figure(figures / "scores.png", "Held-out RMSE and NRMSE fit"),
-                    *model_figures,
-                ),
-            ),
+            _comparison_section(config, artifacts, tables, model_figures, out),
+            *free_sections,
             *loop_sections,
             Section(
                 "Model parameters (cf. thesis Table 4.2)", subsections=tuple(coefficient_sections)
             ),
             *friction_sections,
-            Section(
-                "Data",
-                text="Findings from validation:\n\n"
-                + ("\n".join(f"- {f}" for f in flags) if flags else "- none"),
-                tables=(
-                    Table(data, "Logs as loaded (SI, rig's sign convention) and denoised"),
-                    Table(pieces, "Pieces between logger pauses (unused: too short to filter)"),
-                ),
-            ),
+            _data_section(artifacts, tables),
         ),
         provenance=provenance,
     )

@@ -23,7 +23,7 @@ from hmid.io import Log, load_column_map, read_log
 from hmid.metrics import score
 from hmid.split import validation_masks
 from hmid.summary import LogSummary, summarize
-from hmid.workers import Tasks
+from hmid.workers import Tasks, beside
 
 
 @dataclass(frozen=True)
@@ -213,7 +213,7 @@ def fit(
     config: ExperimentConfig, split: Split, friction, *, workdir: Path, force: bool = False
 ) -> list[Fitted]:
     """Every configured family fitted on the same training rows."""
-    context = FitContext(config.seed, workdir, friction, force)
+    context = FitContext(config.seed, workdir, friction, force, beside)
     signals = split.signals
     # families see the explained quantity only where they may fit: NaN elsewhere, so no
     # held-out force can leak into a fit

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from hmid.balance import Structure, profile
-from hmid.families import FAMILIES, FitContext, FitData, FittedModel
+from hmid.families import FAMILIES, FigureSpec, FitContext, FitData, FittedModel
 from hmid.metrics import score
 
 
@@ -54,26 +54,12 @@ def test_every_family_honours_the_fit_contract(family, fits, ch4_split, tmp_path
         band = model.predict_interval(held)
         if band is not None:
             assert np.all(band[0] <= band[1])
-        drawing = _Queue()  # as a worker draws them: each figure sent pickled
-        extras = model.model.report_extras(tmp_path, model.name.replace(":", "_"), drawing)
-        drawing.results()
-        for path, _ in [] if extras is None else extras.figures:
-            assert path.is_file()
-
-
-class _Queue:
-    """Figures queued as :class:`hmid.workers.Tasks` queues them, drawn from pickled calls."""
-
-    def __init__(self) -> None:
-        self.calls = []
-
-    def submit(self, fn, *args):
-        self.calls.append(pickle.dumps((fn, args)))
-
-    def results(self):
-        for call in self.calls:
-            fn, args = pickle.loads(call)
-            fn(*args)
+        extras = model.model.report_extras()
+        for figure in [] if extras is None else extras.figures:
+            assert isinstance(figure, FigureSpec) and figure.caption
+            figure = pickle.loads(pickle.dumps(figure))  # as a worker draws it
+            figure.draw(*figure.args, tmp_path / figure.file)
+            assert (tmp_path / figure.file).is_file()
 
 
 @pytest.mark.parametrize("family", sorted(FAMILIES))
