@@ -127,6 +127,7 @@ SCRIPTS = (
     ("Friction interval calibration", "bench_calibration_friction.py", []),
     ("Memory and disk at 1 M and 10 M rows", "bench_memory.py", ["--rows", "1000000", "10000000"]),
     ("SINDy fit", "bench_sindy.py", []),
+    ("Free run against solve_ivp (issue 29)", "bench_freerun.py", []),
     ("Cost against log length", "bench_scaling.py", []),
     ("Sweeps: 1 vs 2 workers", "bench_sweep.py", []),
 )

@@ -187,7 +187,8 @@ def _solver(eq: Equation, position: str):
 
 @lru_cache(maxsize=32)
 def _compiled(rhs, lhs, names, m, lag_names, position):
-    """A jitted function (ts, y0, inputs, cr, cl, taus, lag_times, noise) -> states at ts."""
+    """A jitted function (ts, count, y0, inputs, cr, cl, taus, lag_times, noise) -> states at
+    ts (``count``: how many of ts are samples, the rest padding)."""
     import diffrax
     import jax
     import jax.numpy as jnp
@@ -196,37 +197,58 @@ def _compiled(rhs, lhs, names, m, lag_names, position):
     lhs = tuple((k, _rename(d, position), None) for k, d in lhs)
     lag_inputs = tuple(names.index(name) for name in lag_names)
 
-    def field(t, y, args):
-        ts, values, cr, cl, taus, lag_times, noise = args
+    def interpolator(ts, count, values):
+        """Inputs at any time, linear between samples: the sample found from the mean step
+        and corrected by up to two samples either way (a logger's jitter), not searched (a
+        search per evaluation costs more than the whole step)."""
+        step = (ts[count - 1] - ts[0]) / (count - 1)
 
-        def u(name, at):
-            return jnp.interp(at, ts, values[names.index(name)])
+        def at(time):
+            k = jnp.clip(jnp.floor((time - ts[0]) / step).astype(jnp.int32), 0, count - 2)
+            for _ in range(2):
+                k = jnp.clip(k - (ts[k] > time) + (ts[k + 1] < time), 0, count - 2)
+            w = (time - ts[k]) / (ts[k + 1] - ts[k])
+            return values[:, k] * (1 - w) + values[:, k + 1] * w
+
+        return at
+
+    def field(t, y, args):
+        ts, count, table, cr, cl, taus, lag_times = args
+        now = interpolator(ts, count, table)(t)  # the inputs, then the disturbance
+        at = interpolator(ts, count, table)
+
+        def u(name, when):
+            i = names.index(name)
+            return now[i] if when is t else at(when)[i]
 
         x, v, q, lag = y[0], y[1], y[2 : 2 + m], y[2 + m :]
         a_r, b_r = _affine(rhs, cr, t, x, v, q, lag, u)
-        a_r = a_r + jnp.interp(t, ts, noise)  # a disturbance force (zero but in a band)
+        a_r = a_r + now[-1]  # a disturbance force (zero but in a band)
         a_l, b_l = _affine(lhs, cl, t, x, v, q, lag, u)
         a = (a_r - a_l) / (b_l - b_r)
         dq = -q / taus + v
         dlag = lag
         if lag_inputs:
-            inputs = jnp.stack([jnp.interp(t, ts, values[i]) for i in lag_inputs])
-            dlag = (inputs - lag) / lag_times
+            dlag = (now[jnp.array(lag_inputs)] - lag) / lag_times
         return jnp.concatenate([jnp.stack([v, a]), dq, dlag])
 
     def explained(t, y, args):
-        ts, values, _, cl, _, _, _ = args
+        ts, count, table, _, cl, _, _ = args
+        at = interpolator(ts, count, table)
+        now = at(t)
 
-        def u(name, at):
-            return jnp.interp(at, ts, values[names.index(name)])
+        def u(name, when):
+            i = names.index(name)
+            return now[i] if when is t else at(when)[i]
 
         dy = field(t, y, args)
         x, v, q, lag = y[0], y[1], y[2 : 2 + m], y[2 + m :]
         a_l, b_l = _affine(lhs, cl, t, x, v, q, lag, u)
         return a_l + b_l * dy[1]
 
-    def run(ts, y0, values, cr, cl, taus, lag_times, noise):
-        args = (ts, values, cr, cl, taus, lag_times, noise)
+    def run(ts, count, y0, values, cr, cl, taus, lag_times, noise):
+        table = jnp.concatenate([values, noise[None]])  # once, not at every evaluation
+        args = (ts, count, table, cr, cl, taus, lag_times)
         solution = diffrax.diffeqsolve(
             diffrax.ODETerm(field), diffrax.Tsit5(), ts[0], ts[-1], ts[1] - ts[0], y0, args=args,
             saveat=diffrax.SaveAt(ts=ts), stepsize_controller=diffrax.PIDController(
@@ -375,7 +397,7 @@ class Simulator:
         if disturbance is not None:
             noise[:n] = disturbance
         with jax.enable_x64(True):
-            arrays = (ts, y0, values, cr, cl, taus, lag_times, noise)
+            arrays = (ts, np.int32(n), y0, values, cr, cl, taus, lag_times, noise)
             ys, force, ok = self.run(*(jnp.asarray(a) for a in arrays))
             ys, force = np.asarray(ys)[:n], np.asarray(force)[:n]
         output = any(k == "accel" for k, _, _ in eq.lhs)
