@@ -238,6 +238,12 @@ class SLSFitted(FittedModel):
                 "effective samples": r.ess,
             }
         )
+        from hmid.portable.posterior import diagnostics
+
+        arviz = diagnostics(self.posterior_draws()).rename(
+            columns={"r_hat": "R-hat (rank-normalised)", "ess_bulk": "ESS bulk",
+                     "ess_tail": "ESS tail"}
+        )  # fmt: skip
         text = (
             f"Sampler: {r.n_walkers} walkers, {r.n_steps} steps, burn-in {r.burn_in}, thinning "
             f"{r.thin}, stopped by **{r.stop_reason}**, {r.wall_s:.1f} s; mean acceptance "
@@ -246,7 +252,10 @@ class SLSFitted(FittedModel):
         )
         return Extras(
             text=text,
-            tables=[(diag, "MCMC diagnostics per sampled coordinate")],
+            tables=[
+                (diag, "MCMC diagnostics per sampled coordinate (emcee)"),
+                (arviz, "ArviZ diagnostics per parameter, the walkers read as chains"),
+            ],
             figures=[
                 FigureSpec(trace_plot, (r,), "trace.png", "Trace of every walker (burn-in shaded)"),
                 FigureSpec(
