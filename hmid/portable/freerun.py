@@ -258,7 +258,9 @@ def _compiled(rhs, lhs, names, m, lag_names, position):
         force = jax.vmap(lambda t, y: explained(t, y, args))(ts, ys)
         return ys, force, solution.result == diffrax.RESULTS.successful
 
-    return jax.jit(run)
+    # one draw per row of the coefficients, the relaxation times and the disturbance
+    batch = jax.vmap(run, in_axes=(None, None, None, None, 0, None, 0, None, 0))
+    return jax.jit(run), jax.jit(batch)
 
 
 def _rename(data, position: str):
@@ -359,6 +361,7 @@ class Simulator:
     equation: Equation
     position: str
     run: object = field(repr=False)
+    batch: object = field(repr=False)  # ``run`` over draws (vmapped)
 
     @property
     def n_memory(self) -> int:
@@ -404,10 +407,33 @@ class Simulator:
         return Trajectory(np.asarray(t), ys[:, 0], ys[:, 1], force if output else None, bool(ok))
 
 
+    def positions(self, t, inputs, x0, v0, memory0, draws, disturbances) -> np.ndarray:
+        """The position (draws, len(t)) of one run per coefficient draw (each a tuple as
+        :meth:`coefficients` gives) with its disturbance row, in one vectorised call."""
+        import jax
+        import jax.numpy as jnp
+
+        eq, n = self.equation, len(t)
+        ts = _padded(np.asarray(t, dtype=float))
+        values = np.stack([_padded(np.asarray(inputs[k], dtype=float)) for k in eq.inputs]) if (
+            eq.inputs) else np.zeros((0, len(ts)))  # fmt: skip
+        lags0 = [values[eq.inputs.index(name), 0] for name, _ in eq.lags]
+        y0 = np.concatenate([[x0, v0], np.asarray(memory0, dtype=float), lags0])
+        cr = np.stack([d[0] for d in draws])
+        taus = np.stack([d[2] for d in draws])
+        cl, lag_times = draws[0][1], draws[0][3]
+        noise = np.zeros((len(draws), len(ts)))
+        noise[:, :n] = disturbances
+        with jax.enable_x64(True):
+            arrays = (ts, np.int32(n), y0, values, cr, cl, taus, lag_times, noise)
+            ys, _, _ = self.batch(*(jnp.asarray(a) for a in arrays))
+            return np.asarray(ys)[:, :n, 0]
+
+
 def simulator(model, v0: float | None = None) -> Simulator:
     """The compiled free run of ``model``; :class:`NotSimulable` says why there is none."""
     eq = equation(model, v0)
-    return Simulator(eq, model.rig.position, _solver(eq, model.rig.position))
+    return Simulator(eq, model.rig.position, *_solver(eq, model.rig.position))
 
 
 def coefficient_draws(model, sim: Simulator, n: int, seed: int) -> list[tuple] | None:
@@ -491,15 +517,15 @@ def simulate_signals(
         run = sim.integrate(signals["t"][rows], inputs, signals[position][first],
                             signals["v"][first], [m[first] for m in memory_rows])  # fmt: skip
         band = None
+        bounds = None
         if sampled:
             noise = disturbances(model, len(rows), len(sampled), rng)
-            runs = [sim.integrate(signals["t"][rows], inputs, signals[position][first],
-                                  signals["v"][first], [m[first] for m in memory_rows],
-                                  coefficients=c, disturbance=e).x
-                    for c, e in zip(sampled, noise, strict=True)]  # fmt: skip
+            runs = sim.positions(signals["t"][rows], inputs, signals[position][first],
+                                 signals["v"][first], [m[first] for m in memory_rows], sampled,
+                                 noise)  # fmt: skip
             tail = (1 - level) / 2
-            band = tuple(np.nanquantile(np.stack(runs), [tail, 1 - tail], axis=0))
-        out.append(_block(model.rig, signals, rows, run, band))
+            bounds = tuple(np.nanquantile(runs, [tail, 1 - tail], axis=0))
+        out.append(_block(model.rig, signals, rows, run, bounds))
     return FreeRun(model.name, tuple(out), level=level if sampled else None, band=band)
 
 
