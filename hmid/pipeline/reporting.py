@@ -3,6 +3,7 @@ and the report document (Markdown + self-contained HTML)."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -82,14 +83,26 @@ def _friction_text(estimate) -> str:
     return "\n".join(lines)
 
 
-def loop_summary(result) -> tuple[tuple[str, str], ...]:
+def loop_verdict(config, result) -> str:
+    """The loop's verdict; with ``loop.max_effects`` 0 no candidate was screened, so it cannot
+    say that nothing is attributable: only what the residual's diagnostics show."""
+    if config.loop is None or config.loop.max_effects > 0 or result.effects:
+        return result.verdict.value
+    from hmid.loop.result import Verdict
+
+    shown = "no pattern" if result.verdict is Verdict.NOTHING_ATTRIBUTABLE else "a pattern"
+    return f"nothing screened (loop.max_effects is 0); the residual's diagnostics show {shown}"
+
+
+def loop_summary(result, verdict: str | None = None) -> tuple[tuple[str, str], ...]:
     if result is None:
         return ()
     added = ", ".join(e.title for e in result.effects) or "no effect added"
     return (
         (
             "closing the loop",
-            f"{result.verdict.value}: {added}; held-out RMSE (one-step) {result.base_name} "
+            f"{verdict or result.verdict.value}: {added}; held-out RMSE (one-step) "
+            f"{result.base_name} "
             f"{result.before.rmse:.4g} → {result.after_name} {result.after.rmse:.4g} "
             f"{result.unit}",
         ),
@@ -210,7 +223,7 @@ def write_outputs(
     fit_table = _fit_table(artifacts, unit)
     _csv(fit_table, tables / "fit_table.csv")
     _csv(comparison.scores, tables / "held_out_scores.csv")
-    findings = [f for model in fitted for f in model.findings]
+    findings = [f for model in fitted for f in model.findings] + list(artifacts.get("checks", ()))
     findings_table = pd.DataFrame([f.to_dict() for f in findings])
     if findings:
         _csv(findings_table, tables / "sign_findings.csv")
@@ -231,10 +244,15 @@ def write_outputs(
     if artifacts.get("loop") is not None:
         from hmid.loop.report import loop_section
 
+        # its wall times go to timings.json, not the report: two runs' reports are the same
+        result = replace(artifacts["loop"], costs=())
         section, metrics_loop = loop_section(
-            artifacts["loop"], figures, lambda frame, name: _csv(frame, tables / name),
+            result, figures, lambda frame, name: _csv(frame, tables / name),
             drawing=drawing,
         )  # fmt: skip
+        verdict = metrics_loop["verdict"] = loop_verdict(config, result)
+        if verdict != result.verdict.value:
+            section = replace(section, text=section.text.replace(result.verdict.value, verdict, 1))
         loop_sections = (section,)
 
     friction_sections, friction_summary = (), ()
@@ -273,6 +291,7 @@ def write_outputs(
         _csv(free_table, tables / "free_run_scores.csv")
         drawing.submit(plot_free_runs, free_runs, figures / "free_run.png", label, unit)
     flags = list(inventory.flags)
+    data_findings = (*inventory.findings, *rows.findings)  # hmid.io.plausibility
     n_train, n_val = rows.train, rows.validation
     error_kind = f"one-step: {label} predicted from the measured signals at each sample"
     metrics = {
@@ -288,11 +307,12 @@ def write_outputs(
         "friction": None if estimate is None else estimate.to_dict(),
         "rows": {"train": n_train, "validation": n_val, "excluded": rows.excluded},
         "flags": flags,
+        "data_findings": [f.to_dict() for f in data_findings],
         "model_files": model_files,
         "free_run": free_table.replace({np.nan: None}).to_dict(orient="records"),
     }
-    if metrics_loop is not None:
-        metrics["loop"] = metrics_loop
+    if metrics_loop is not None:  # its wall times go to timings.json: metrics are reproducible
+        metrics["loop"] = {k: v for k, v in metrics_loop.items() if k != "wall_s"}
     write_json(run_dir / "metrics.json", metrics)
 
     sign_summary = ()
@@ -313,10 +333,15 @@ def write_outputs(
             ),
             ("held-out max |error|", f"{best['max_abs_error (held-out)']:.4g} {unit}"),
             ("verdict", _verdict(best)),
+            *(
+                (("⚠ data plausibility", "; ".join(f.message() for f in data_findings)),)
+                if data_findings
+                else ()
+            ),
             *sign_summary,
             *friction_summary,
             ("rows: train / held-out / excluded", f"{n_train} / {n_val} / {rows.excluded}"),
-            *loop_summary(artifacts.get("loop")),
+            *loop_summary(artifacts.get("loop"), metrics.get("loop", {}).get("verdict")),
         ),
         sections=(
             _rig_section(config, units),
