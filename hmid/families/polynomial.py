@@ -54,6 +54,9 @@ class PolynomialSpec(FamilySpec):
     # pipeline's correlated residuals by benchmarks/bench_calibration_polynomial.py), "ols"
     # (independent errors) or "hac" (Newey-West); see hmid.models.polynomial.
     errors: Literal["autocov", "ols", "hac"] = "autocov"
+    # terms whose coefficient physics makes positive (e.g. [P]: the pressure pushes); a fit with
+    # the whole interval below zero is a sign finding, as for the balance's positive terms
+    positive: tuple[str, ...] = ()
 
     def _term_sets(self):
         from hmid.models.terms import variant_terms
@@ -70,6 +73,12 @@ class PolynomialSpec(FamilySpec):
             raise ValueError("give at least one of variants or custom")
         for _, terms in self._term_sets():
             self.channels_needed(rig, sorted({v for t in terms for v in t.variables}))
+        names = {t.name for _, terms in self._term_sets() for t in terms}
+        unknown = [name for name in self.positive if name not in names]
+        if unknown:
+            raise ValueError(
+                f"positive: {unknown} are no terms of these variants ({sorted(names)})"
+            )
 
     def fit(self, data: FitData, context: FitContext) -> list[Fitted]:
         from hmid.models.polynomial import PolynomialModel
@@ -89,6 +98,8 @@ class PolynomialSpec(FamilySpec):
             y = data.y if data.slot_sign == 1 else data.slot_sign * data.y
             model.fit(data.frame(variables, keys=False), y,
                       monomials=smoothed_monomials(model.term_set, data))  # fmt: skip
+            table = model.coefficient_table()
+            findings = positive_findings(f"poly:{variant}", table, self.positive, data.rig)
             fitted.append(
                 Fitted(
                     name=f"poly:{variant}",
@@ -96,13 +107,37 @@ class PolynomialSpec(FamilySpec):
                     model=FittedPolynomial(model, variables, data.slot_sign),
                     kind="one-step",
                     fit_summary=FitSummary.of_model(model.summary_),
-                    coefficients=model.coefficient_table(),
+                    coefficients=table,
                     equation=model.equation(),
-                    notes=(model.interval_method(), *model.summary_.warnings),
+                    notes=(
+                        model.interval_method(),
+                        *model.summary_.warnings,
+                        *(f.message() for f in findings),
+                    ),
                     interval=model.interval_note(),
+                    findings=findings,
                 )
             )
         return fitted
+
+
+def positive_findings(name: str, table, positive, rig: RigSection) -> tuple:
+    """Sign findings (:func:`hmid.balance.sign_findings`) of the coefficients of the terms
+    ``positive`` declares (rows of ``table``, a coefficient table)."""
+    if not positive:
+        return ()
+    import pandas as pd
+
+    from hmid.balance import sign_findings
+    from hmid.models.terms import Term
+
+    low, high = (c for c in table.columns if c.startswith("ci_"))
+    rows = pd.DataFrame(
+        {"parameter": table["term"], "value": table["value"], "lower": table[low],
+         "upper": table[high], "unit": table["unit"], "positive": table["term"].isin(positive)}
+    )  # fmt: skip
+    reads = {term: Term.parse(term).variables for term in rows["parameter"] if term in positive}
+    return sign_findings(name, rows, reads, rig.position)
 
 
 @dataclass(frozen=True)

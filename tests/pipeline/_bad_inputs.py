@@ -108,6 +108,13 @@ def case(name: str, folder: Path) -> Path:
         dynamic["x"]["column"], dynamic["F"]["column"] = "F_N", "x_mm"
     elif name == "position_reversed":  # polynomial only: the sign must be caught all the same
         config["rig"]["channels"]["x"]["sign"] = -1
+    elif name in ("pressure_declared_positive", "pressure_reversed"):  # positive: [P] declared
+        linear = {"name": "linear", "variables": ["x", "v", "P"], "degree": 1}
+        config["models"] = [
+            {"family": "polynomial", "variants": [], "custom": [linear], "positive": ["P"]}
+        ]
+        if name == "pressure_reversed":
+            config["rig"]["channels"]["P"]["sign"] = -1
     elif name == "free_fall_mass":  # 7.5 kg declared, 0.75 kg true
         config["rig"]["free_fall"]["mass"] = 7.5
     elif name == "max_effects_0":

@@ -27,6 +27,7 @@ CASES = {
     "x_F_swapped": (0, "x and F look swapped"),
     "position_reversed": (0, "x counted the other way: F falls as the acceleration"),
     "free_fall_mass": (0, "free_fall.mass 7.5 kg too large"),
+    "pressure_reversed": (0, "poly:linear: P = -2.491e-05 N/Pa (interval"),
     "max_effects_0": (0, "nothing screened (loop.max_effects is 0"),
     "force_1e300": (2, "channel F: 1 isolated sample(s) far outside"),
     "khz_as_hz": (2, "is the time column in ms rather than s (the log would be sampled at 1000"),
@@ -72,6 +73,14 @@ def test_clean_demo_logs_give_no_finding(tmp_path):
     config = load_experiment(case("clean", tmp_path / "clean"))
     artifacts = analyse(config, ("inventory", "rows", "checks"), tmp_path / "cache")
     assert data_findings(artifacts) == () and artifacts["checks"] == ()
+
+
+def test_a_declared_positive_coefficient_fitted_positive_is_no_finding(tmp_path):
+    config = load_experiment(case("pressure_declared_positive", tmp_path / "case"))
+    artifacts = analyse(config, ("fit", "checks"), tmp_path / "cache")
+    assert sign_findings(artifacts) == ()
+    (model,) = artifacts["fit"]
+    assert model.coefficients.set_index("term").loc["P", "value"] > 0
 
 
 @pytest.mark.slow
