@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from hmid.balance.rig import DERIVED
+from hmid.errors import HmidError
 
 
 @dataclass(frozen=True)
@@ -170,3 +171,26 @@ def motion_findings(rig, signals) -> tuple[SignFinding, ...]:
              f"{target} counted the other way (its column map's scale)"),
         ),
     )  # fmt: skip
+
+
+def declared_positive(
+    model: str, table: pd.DataFrame, positive, position: str | None
+) -> tuple[SignFinding, ...]:
+    """Sign findings of a family's coefficient table (``term``, ``value``, ``unit`` and the
+    ``ci_low``/``ci_high`` columns) for the terms its config declares ``positive``."""
+    if not positive:
+        return ()
+    from hmid.models.terms import Term
+
+    low, high = (c for c in table.columns if c.startswith("ci_"))
+    rows = pd.DataFrame(
+        {"parameter": table["term"], "value": table["value"], "lower": table[low],
+         "upper": table[high], "unit": table["unit"], "positive": table["term"].isin(positive)}
+    )  # fmt: skip
+    reads = {}
+    for term in positive:
+        try:
+            reads[term] = Term.parse(term).variables
+        except (ValueError, HmidError):  # a term that is no monomial (tanh(v/v0)): v's
+            reads[term] = tuple(c for c in ("x", "v", "P") if c in term)
+    return sign_findings(model, rows, reads, position)

@@ -13,6 +13,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from hmid.balance import RigSection, Structure
+from hmid.balance.checks import declared_positive
 from hmid.balance.kinds import ChannelTerm, ConstantTerm, channel_product
 from hmid.balance.signals import raw
 from hmid.families.base import FamilySpec, FitContext, FitData, FitSummary, Fitted, FittedModel
@@ -99,7 +100,7 @@ class PolynomialSpec(FamilySpec):
             model.fit(data.frame(variables, keys=False), y,
                       monomials=smoothed_monomials(model.term_set, data))  # fmt: skip
             table = model.coefficient_table()
-            findings = positive_findings(f"poly:{variant}", table, self.positive, data.rig)
+            findings = declared_positive(f"poly:{variant}", table, self.positive, data.rig.position)
             fitted.append(
                 Fitted(
                     name=f"poly:{variant}",
@@ -119,25 +120,6 @@ class PolynomialSpec(FamilySpec):
                 )
             )
         return fitted
-
-
-def positive_findings(name: str, table, positive, rig: RigSection) -> tuple:
-    """Sign findings (:func:`hmid.balance.sign_findings`) of the coefficients of the terms
-    ``positive`` declares (rows of ``table``, a coefficient table)."""
-    if not positive:
-        return ()
-    import pandas as pd
-
-    from hmid.balance import sign_findings
-    from hmid.models.terms import Term
-
-    low, high = (c for c in table.columns if c.startswith("ci_"))
-    rows = pd.DataFrame(
-        {"parameter": table["term"], "value": table["value"], "lower": table[low],
-         "upper": table[high], "unit": table["unit"], "positive": table["term"].isin(positive)}
-    )  # fmt: skip
-    reads = {term: Term.parse(term).variables for term in rows["parameter"] if term in positive}
-    return sign_findings(name, rows, reads, rig.position)
 
 
 @dataclass(frozen=True)

@@ -135,6 +135,9 @@ class SINDySpec(FamilySpec):
     # F_m ~ m1 g + friction, and cross-validation alone keeps only {1, tanh(v/v0)} (a map with no
     # P and no x, whose free run drifts); ``keep`` spares these terms from the threshold.
     keep: tuple[str, ...] = ("x", "P")
+    # terms whose coefficient physics makes positive (e.g. [P]); a whole interval below zero is
+    # a sign finding, as for the balance's positive terms
+    positive: tuple[str, ...] = ()
     threshold: Literal["cv"] | Annotated[float, Field(ge=0)] = "cv"
     cv: CrossValidation = CrossValidation()
     support: Literal["cv", "threshold"] = "cv"
@@ -170,11 +173,13 @@ class SINDySpec(FamilySpec):
             self.variables, self.degree, dict(self.max_degree), self.friction_terms, self.v0
         )
         candidates = library.candidate_names()
-        unknown = [k for k in self.keep if canonical_name(k) not in candidates]
-        if unknown:
-            raise ValueError(
-                f"keep names {unknown}, which are not library terms; terms: {', '.join(candidates)}"
-            )
+        for key, names in (("keep", self.keep), ("positive", self.positive)):
+            unknown = [k for k in names if canonical_name(k) not in candidates]
+            if unknown:
+                raise ValueError(
+                    f"{key} names {unknown}, which are not library terms; terms: "
+                    f"{', '.join(candidates)}"
+                )
         if self.stick_speed and self.friction_terms and self.v0 > 10 * self.stick_speed:
             raise ValueError(
                 f"v0={self.v0} m/s is over ten times stick_speed={self.stick_speed} m/s: "
@@ -192,6 +197,7 @@ class SINDySpec(FamilySpec):
             raise ValueError("family 'sindy' is driven by the pressure P, which the rig lacks")
 
     def fit(self, data: FitData, context: FitContext) -> list[Fitted]:
+        from hmid.balance.checks import declared_positive
         from hmid.families._sindy_result import (
             VARIABLES,
             SINDyResult,
@@ -200,6 +206,7 @@ class SINDySpec(FamilySpec):
             with_velocity,
         )
         from hmid.models.sindy import EquationOfMotion, SINDyForceModel, free_run
+        from hmid.models.sindy._library import canonical_name
 
         velocity = self.velocity.build()
         whole = sequences(data.signals)
@@ -252,6 +259,9 @@ class SINDySpec(FamilySpec):
         summary = FitSummary.of_model(model.summary_, extras=extras)
         result = SINDyResult(model, eom, run, velocity, self.velocity.label(), data.slot_sign,
                              skipped)  # fmt: skip
+        table = model.coefficient_table()
+        positive = [canonical_name(k) for k in self.positive]
+        findings = declared_positive(f"sindy:{self.name}", table, positive, data.rig.position)
         return [
             Fitted(
                 name=f"sindy:{self.name}",
@@ -259,10 +269,11 @@ class SINDySpec(FamilySpec):
                 model=result,
                 kind="one-step",
                 fit_summary=summary,
-                coefficients=model.coefficient_table(),
+                coefficients=table,
                 equation=model.equation(),
-                notes=tuple(notes),
+                notes=(*notes, *(f.message() for f in findings)),
                 interval=model.interval_note(),
+                findings=findings,
             )
         ]
 
