@@ -147,17 +147,20 @@ def motion_findings(rig, signals) -> tuple[SignFinding, ...]:
         return ()
     if explained[0] in DERIVED or rig.explained.parts[0].channel != explained[0]:
         return ()  # the explained quantity is made of the motion itself: nothing to check
-    rows = signals.usable
-    if int(rows.sum()) < 10:
+    rows, y_all, a_all = signals.usable, signals[explained[0]], signals["a"]
+    sums = np.zeros(6)  # n, Σa, Σy, Σa², Σay, Σy²: block by block, no copy of a long log
+    for lo in range(0, len(rows), 1 << 20):
+        block = slice(lo, lo + (1 << 20))
+        a, y = a_all[block][rows[block]], y_all[block][rows[block]]
+        sums += (len(a), a.sum(), y.sum(), a @ a, a @ y, y @ y)
+    n, sa, sy, saa, say, syy = sums
+    if n < 10:
         return ()
-    y, a = signals[explained[0]][rows], signals["a"][rows]
-    a_c, y_c = a - a.mean(), y - y.mean()
-    ssa = float(a_c @ a_c)
+    ssa, sxy, ssy = saa - sa * sa / n, say - sa * sy / n, syy - sy * sy / n
     if ssa <= 0:
         return ()
-    slope = float(a_c @ y_c) / ssa
-    resid = y_c - slope * a_c
-    se = float(np.sqrt(resid @ resid / max(len(y) - 2, 1) / ssa))
+    slope = sxy / ssa
+    se = float(np.sqrt(max(ssy - slope * sxy, 0.0) / max(n - 2, 1) / ssa))
     if slope + 4 * se >= 0:  # well beyond any noise: a sign, not a scatter
         return ()
     target = explained[0]
