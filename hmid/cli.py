@@ -66,7 +66,9 @@ def _run(args: argparse.Namespace) -> int:
 
     tasks.start(worker_imports(Path(args.config)))
 
-    run_dir, metrics = run(Path(args.config), results=Path(args.results), force=args.force)
+    run_dir, metrics = run(
+        Path(args.config), results=Path(args.results), force=args.force, strict=args.strict
+    )
     print(console_summary(metrics))
     print(f"report: {run_dir / 'report.html'}")
     return 0
@@ -218,6 +220,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("config", type=Path, help="experiment config (YAML), e.g. configs/demo.yaml")
     p.add_argument("--results", default="results", help="results root folder (default: results)")
     p.add_argument("--force", action="store_true", help="recompute every stage, ignore the cache")
+    p.add_argument(
+        "--strict",
+        action="store_true",
+        help="a finding about the data (implausible units, stuck or clipped sensors, logs that "
+        "give no rows) or a parameter's sign is an error (exit 2), not a warning",
+    )
     p.set_defaults(func=_run)
 
     p = sub.add_parser(

@@ -74,9 +74,45 @@ def pieces(log: Log, name: str, split_gaps_s: float | None, min_duration_s: floa
         records.append(Piece(name, float(part.t[0]), part.duration, len(part), usable))
         if usable:
             kept.append(part)
+    if not kept and len(parts) == 1:  # no pause: the log itself is short
+        raise LogError(
+            f"{log.source}: the log holds only {len(log)} sample(s) over {log.duration:.4g} s, "
+            f"shorter than the {min_duration_s:g} s (three filter windows) the smoothing and "
+            "derivatives need; record a longer log or shorten denoise.smoother.window_s"
+        )
     if not kept:
         raise LogError(
             f"{log.source}: no piece between logger pauses lasts {min_duration_s:g} s, three "
             "filter windows; shorten the windows or raise denoise.split_gaps_s"
         )
     return kept, records
+
+
+def check_time_base(log: Log, window_s: float, time_unit: str) -> None:
+    """LogError if the log's time step is over twice the smoothing window: the window would hold
+    less than a sample. Almost always a time unit off by 1000 (a 1 kHz log in ms read
+    as s, 1 Hz), so the time unit is named before the window."""
+    if len(log) < 2:
+        return
+    step = 1.0 / log.sample_rate
+    if window_s >= step / 2:  # the moving average's own limit: a window of one sample
+        return
+    from hmid.io.plausibility import unit_factor
+
+    better = [
+        unit
+        for unit in ("ms", "us", "s")
+        if unit != time_unit and step * unit_factor(unit) / unit_factor(time_unit) <= window_s / 2
+    ]
+    hint = (
+        f"is the time column in {better[0]} rather than {time_unit} (the log would be sampled at "
+        f"{log.sample_rate * unit_factor(time_unit) / unit_factor(better[0]):.4g} Hz)? Set "
+        "channels.t.unit in the column map; if the rig really samples this slowly, lengthen "
+        "denoise.smoother.window_s"
+        if better
+        else "lengthen denoise.smoother.window_s to a few time steps"
+    )
+    raise LogError(
+        f"{log.source}: sampled every {step:.4g} s ({log.sample_rate:.4g} Hz), longer than the "
+        f"{window_s:g} s smoothing window: {hint}"
+    )

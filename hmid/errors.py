@@ -20,6 +20,10 @@ class UnitError(LogError):
     """A unit is unknown or has the wrong dimension for its channel."""
 
 
+class DataError(HmidError, ValueError):
+    """The data are implausible for the rig (``hmid run --strict``: a finding is an error)."""
+
+
 class ConfigError(HmidError, ValueError):
     """A configuration file or object is invalid (unknown key, wrong type, impossible value)."""
 

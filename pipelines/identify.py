@@ -7,8 +7,9 @@ import warnings
 from functools import partial
 from pathlib import Path
 
-from hmid.errors import ConfigError, HmidWarning
+from hmid.errors import ConfigError, DataError, HmidWarning
 from hmid.experiment import ExperimentConfig, load_experiment
+from hmid.files import write_json
 from hmid.pipeline import Runner, Stage
 from hmid.pipeline import stages as s
 from hmid.pipeline.reporting import FIGURE_MODULES, write_outputs
@@ -38,6 +39,7 @@ STAGES = (
         store=False,
     ),
     Stage("split", s.split, ("signals",), _section("split"), store=False),
+    Stage("checks", s.checks, ("split", "friction"), store=False),
     Stage(
         "fit",
         s.fit,
@@ -59,7 +61,17 @@ STAGES = (
 
 #: What the report reads: the logs, as loaded and as smoothed, are let go once the signals exist,
 #: and the signals once the last stage has read them.
-REPORTED = ("inventory", "friction", "rows", "fit", "compare", "loop", "export", "freerun")
+REPORTED = (
+    "inventory",
+    "friction",
+    "checks",
+    "rows",
+    "fit",
+    "compare",
+    "loop",
+    "export",
+    "freerun",
+)
 
 
 def analyse(config: ExperimentConfig, stages: tuple[str, ...], cache: Path, *, force=False) -> dict:
@@ -74,10 +86,23 @@ def analyse(config: ExperimentConfig, stages: tuple[str, ...], cache: Path, *, f
     return Runner(cache, force=force).run([s for s in STAGES if s.name in needed], config)
 
 
+def data_findings(artifacts: dict) -> tuple:
+    """What the physics makes implausible in the logs (:mod:`hmid.io.plausibility`)."""
+    held = (artifacts.get("inventory"), artifacts.get("rows"))
+    return tuple(f for part in held if part is not None for f in part.findings)
+
+
+def sign_findings(artifacts: dict) -> tuple:
+    """Parameters fitted with a sign physics forbids: every family's, the rig's own."""
+    fitted = tuple(f for model in artifacts["fit"] for f in model.findings)
+    return (*fitted, *(artifacts.get("checks") or ()))
+
+
 def findings(artifacts: dict) -> list[str]:
-    """What the run must say on the console: physical signs that fail, a friction law that the
-    free falls reject."""
-    out = [finding.message() for model in artifacts["fit"] for finding in model.findings]
+    """What the run must say on the console: implausible data, physical signs that fail, a
+    friction law that the free falls reject."""
+    out = [finding.message() for finding in data_findings(artifacts)]
+    out += [finding.message() for finding in sign_findings(artifacts)]
     law = artifacts["friction"].law if artifacts.get("friction") is not None else None
     if law is not None and law.rejected:
         out.append(law.message())
@@ -103,9 +128,10 @@ def _imports(families) -> tuple[str, ...]:
 
 
 def run(
-    config_path: Path, *, results: Path = Path("results"), force: bool = False
+    config_path: Path, *, results: Path = Path("results"), force: bool = False, strict=False
 ) -> tuple[Path, dict]:
-    """Run the study; returns the new run folder and the metrics."""
+    """Run the study; returns the new run folder and the metrics. ``strict``: a finding about
+    the data or a sign is an error (the folder is marked failed)."""
     config = load_experiment(config_path)
     inputs = [config.resolve(p) for e in config.logs for p in (e.path, e.columns)]
     resolved = config_json(config)
@@ -121,8 +147,33 @@ def run(
         folder.manifest.stages = {name: r.wall_s for name, r in runner.records.items()}
         folder.manifest.cache = {name: r.cached for name, r in runner.records.items()}
         folder.manifest.reused = {f.name: f.reused for f in artifacts["fit"] if f.reused}
-        for message in findings(artifacts):  # said on every run, the cached ones too
+        said = findings(artifacts)
+        if strict and said:
+            more = f" (and {len(said) - 1} more finding(s))" if len(said) > 1 else ""
+            raise DataError(f"--strict: {said[0]}{more}")
+        for message in said:  # said on every run, the cached ones too
             warnings.warn(message, HmidWarning, stacklevel=2)
         with folder.manifest.stage("report"):
             metrics = write_outputs(config, artifacts, folder.path, folder.provenance(), workers)
+        write_json(folder.path / "timings.json", timings(runner, artifacts))
     return folder.path, metrics
+
+
+def timings(runner: Runner, artifacts: dict) -> dict:
+    """Wall times, kept out of metrics.json so that two runs give the same bytes there: each
+    stage's, the loop's parts', and each sampler's."""
+    loop = artifacts.get("loop")
+    samplers = {
+        model.name: float(model.model.result.wall_s)
+        for model in artifacts["fit"]
+        if hasattr(getattr(model.model, "result", None), "wall_s")
+    }
+    return {
+        "stages_s": {name: r.wall_s for name, r in runner.records.items()},
+        "loop_s": [
+            {"part": part, "seconds": seconds, "candidates": n} for part, seconds, n in loop.costs
+        ]
+        if loop is not None
+        else [],
+        "samplers_s": samplers,
+    }

@@ -1,12 +1,16 @@
-"""Summary study: load -> validate -> denoise -> summarise -> report, into a new run folder."""
+"""Summary study: load -> validate -> denoise -> summarise -> plausibility -> report, into a new
+run folder."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
+from hmid.errors import HmidWarning
 from hmid.experiment import load_experiment, log_units
 from hmid.files import write_json, write_text
 from hmid.pipeline import Runner
+from hmid.pipeline.stages import plausibility
 from hmid.runs import config_json, open_run
 from hmid.summary import markdown, plot_overview, summarize
 from pipelines.identify import STAGES
@@ -27,9 +31,17 @@ def run(config_path: Path, *, results: Path = Path("results"), quiet: bool = Fal
             summarize(name, item.role, item.pieces, channels)
             for name, item in artifacts["denoise"].items()
         ]
+        found = plausibility(config, artifacts["load"], summaries)
+        for finding in found:
+            warnings.warn(finding.message(), HmidWarning, stacklevel=2)
         with folder.manifest.stage("report"):
             write_json(folder.path / "summary.json", [s.as_dict() for s in summaries])
             text = markdown(summaries, log_units(config), f"Data summary: {config.name}")
+            text += (
+                "\n## Plausibility from physics\n\n"
+                + ("\n".join(f"- {f.message()}" for f in found) or "- nothing implausible")
+                + "\n"
+            )
             write_text(folder.path / "summary.md", text)
             dynamic = {n: i.pieces for n, i in artifacts["denoise"].items() if i.role == "dynamic"}
             plot_overview(dynamic, channels, folder.path / "overview.png")

@@ -51,10 +51,22 @@ class _Frozen(BaseModel):
 
 class RigChannel(_Frozen):
     """A log channel the model may read. ``sign: -1`` when the logger counts it the other way
-    than the rig's convention (the channel is negated on loading)."""
+    than the rig's convention (the channel is negated on loading). What the rig can do, in SI
+    units, for the plausibility checks (:mod:`hmid.io.plausibility`): ``range`` of the values,
+    and for the position ``max_speed`` and ``max_acceleration`` (defaults 10 m/s, 1000 m/s²)."""
 
     sign: Literal[1, -1] = 1
     description: str = ""
+    range: tuple[float, float] | None = None
+    max_speed: Positive | None = None
+    max_acceleration: Positive | None = None
+
+    @field_validator("range")
+    @classmethod
+    def _ordered(cls, value):
+        if value is not None and not value[0] < value[1]:
+            raise ValueError("range must be [low, high] with low < high")
+        return value
 
 
 class KnownPart(_Frozen):
@@ -131,6 +143,12 @@ class RigSection(_Frozen):
             raise ValueError(
                 f"position {self.position!r} is not among channels {list(self.channels)}"
             )
+        for name, spec in self.channels.items():
+            if name != self.position and (spec.max_speed or spec.max_acceleration):
+                raise ValueError(
+                    f"channels.{name}: max_speed and max_acceleration are the position's "
+                    f"({self.position}); give them there"
+                )
         taken = [c for c in DERIVED if c in self.channels and self.position is not None]
         if taken:
             raise ValueError(f"channel names {taken} are derived from the position; rename them")
@@ -190,6 +208,17 @@ class RigSection(_Frozen):
         derived = DERIVED if self.position is not None else ()
         names = dict.fromkeys((*self.channels, *self.explained.channels))
         return tuple(c for c in names if c not in derived)
+
+    def limits(self):
+        """What the rig can do (:class:`hmid.io.plausibility.Limits`), declared or default."""
+        from hmid.io.plausibility import MAX_ACCELERATION, MAX_SPEED, Limits
+
+        position = self.channels.get(self.position) if self.position else None
+        return Limits(
+            max_speed=(position.max_speed if position else None) or MAX_SPEED,
+            max_acceleration=(position.max_acceleration if position else None) or MAX_ACCELERATION,
+            ranges={c: s.range for c, s in self.channels.items() if s.range is not None},
+        )
 
     @property
     def slot(self) -> ModelSlot | None:

@@ -91,7 +91,7 @@ class SLSFitted(FittedModel):
                 f"exact posterior: A_eff, F0, k1{', k3' if self.spec.spring == 'cubic' else ''}, "
                 f"k2 and sigma integrated out (flat prior on the force parameters, 1/sigma on "
                 f"sigma), {axes} on a grid of {self.grid.log_density.size} points; "
-                f"{r.n_steps} independent draws ({r.wall_s:.2f} s)"
+                f"{r.n_steps} independent draws"
             )
         else:
             how = (
@@ -213,7 +213,7 @@ class SLSFitted(FittedModel):
             from hmid.models.sls.diagnostics import grid_plot
 
             text = (
-                f"Exact posterior, {r.n_steps} independent draws in {r.wall_s:.2f} s: the force "
+                f"Exact posterior, {r.n_steps} independent draws: the force "
                 "parameters and sigma integrated out analytically (flat prior on A_eff, F0, k1, "
                 "k3, k2, so their signs come from the data; p(sigma) ∝ 1/sigma), the relaxation "
                 "time (and phi) on a grid spanning 8 posterior standard deviations. Intervals "
@@ -246,7 +246,7 @@ class SLSFitted(FittedModel):
         )  # fmt: skip
         text = (
             f"Sampler: {r.n_walkers} walkers, {r.n_steps} steps, burn-in {r.burn_in}, thinning "
-            f"{r.thin}, stopped by **{r.stop_reason}**, {r.wall_s:.1f} s; mean acceptance "
+            f"{r.thin}, stopped by **{r.stop_reason}**; mean acceptance "
             f"{r.acceptance_mean:.2f}. Intervals are {100 * self.spec.confidence:.0f} % "
             "equal-tailed posterior intervals."
         )

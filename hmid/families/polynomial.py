@@ -13,6 +13,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from hmid.balance import RigSection, Structure
+from hmid.balance.checks import declared_positive
 from hmid.balance.kinds import ChannelTerm, ConstantTerm, channel_product
 from hmid.balance.signals import raw
 from hmid.families.base import FamilySpec, FitContext, FitData, FitSummary, Fitted, FittedModel
@@ -54,6 +55,9 @@ class PolynomialSpec(FamilySpec):
     # pipeline's correlated residuals by benchmarks/bench_calibration_polynomial.py), "ols"
     # (independent errors) or "hac" (Newey-West); see hmid.models.polynomial.
     errors: Literal["autocov", "ols", "hac"] = "autocov"
+    # terms whose coefficient physics makes positive (e.g. [P]: the pressure pushes); a fit with
+    # the whole interval below zero is a sign finding, as for the balance's positive terms
+    positive: tuple[str, ...] = ()
 
     def _term_sets(self):
         from hmid.models.terms import variant_terms
@@ -70,6 +74,12 @@ class PolynomialSpec(FamilySpec):
             raise ValueError("give at least one of variants or custom")
         for _, terms in self._term_sets():
             self.channels_needed(rig, sorted({v for t in terms for v in t.variables}))
+        names = {t.name for _, terms in self._term_sets() for t in terms}
+        unknown = [name for name in self.positive if name not in names]
+        if unknown:
+            raise ValueError(
+                f"positive: {unknown} are no terms of these variants ({sorted(names)})"
+            )
 
     def fit(self, data: FitData, context: FitContext) -> list[Fitted]:
         from hmid.models.polynomial import PolynomialModel
@@ -89,6 +99,8 @@ class PolynomialSpec(FamilySpec):
             y = data.y if data.slot_sign == 1 else data.slot_sign * data.y
             model.fit(data.frame(variables, keys=False), y,
                       monomials=smoothed_monomials(model.term_set, data))  # fmt: skip
+            table = model.coefficient_table()
+            findings = declared_positive(f"poly:{variant}", table, self.positive, data.rig.position)
             fitted.append(
                 Fitted(
                     name=f"poly:{variant}",
@@ -96,10 +108,15 @@ class PolynomialSpec(FamilySpec):
                     model=FittedPolynomial(model, variables, data.slot_sign),
                     kind="one-step",
                     fit_summary=FitSummary.of_model(model.summary_),
-                    coefficients=model.coefficient_table(),
+                    coefficients=table,
                     equation=model.equation(),
-                    notes=(model.interval_method(), *model.summary_.warnings),
+                    notes=(
+                        model.interval_method(),
+                        *model.summary_.warnings,
+                        *(f.message() for f in findings),
+                    ),
                     interval=model.interval_note(),
+                    findings=findings,
                 )
             )
         return fitted

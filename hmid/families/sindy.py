@@ -48,7 +48,7 @@ from dataclasses import dataclass, fields
 from typing import Annotated, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hmid.balance import RigSection
 from hmid.errors import ConfigError
@@ -116,6 +116,23 @@ class SINDySpec(SINDySettings, FamilySpec):
     ] = PipelineVelocity()
     free_run: FreeRun = FreeRun()
 
+    # terms whose coefficient physics makes positive (e.g. [P]); a whole interval below zero is
+    # a sign finding, as for the balance's positive terms
+    positive: tuple[str, ...] = ()
+
+    @model_validator(mode="after")
+    def _positive_terms(self) -> SINDySpec:
+        from hmid.models.sindy._library import canonical_name
+
+        candidates = self.library().candidate_names()
+        unknown = [k for k in self.positive if canonical_name(k) not in candidates]
+        if unknown:
+            raise ValueError(
+                f"positive names {unknown}, which are not library terms; terms: "
+                f"{', '.join(candidates)}"
+            )
+        return self
+
     def settings(self) -> SINDySettings:
         """The fit's hyperparameters alone (already validated: not validated again)."""
         fields = {k: getattr(self, k) for k in SINDySettings.model_fields}
@@ -131,6 +148,7 @@ class SINDySpec(SINDySettings, FamilySpec):
             raise ValueError("family 'sindy' is driven by the pressure P, which the rig lacks")
 
     def fit(self, data: FitData, context: FitContext) -> list[Fitted]:
+        from hmid.balance.checks import declared_positive
         from hmid.families._sindy_result import (
             VARIABLES,
             SINDyResult,
@@ -139,6 +157,7 @@ class SINDySpec(SINDySettings, FamilySpec):
             with_velocity,
         )
         from hmid.models.sindy import EquationOfMotion, SINDyForceModel, free_run
+        from hmid.models.sindy._library import canonical_name
 
         velocity = self.velocity.build()
         whole = sequences(data.signals)
@@ -185,6 +204,9 @@ class SINDySpec(SINDySettings, FamilySpec):
         summary = FitSummary.of_model(model.summary_, extras=extras)
         result = SINDyResult(model, eom, run, velocity, self.velocity.label(), data.slot_sign,
                              skipped)  # fmt: skip
+        table = model.coefficient_table()
+        positive = [canonical_name(k) for k in self.positive]
+        findings = declared_positive(f"sindy:{self.name}", table, positive, data.rig.position)
         return [
             Fitted(
                 name=f"sindy:{self.name}",
@@ -192,10 +214,11 @@ class SINDySpec(SINDySettings, FamilySpec):
                 model=result,
                 kind="one-step",
                 fit_summary=summary,
-                coefficients=model.coefficient_table(),
+                coefficients=table,
                 equation=model.equation(),
-                notes=tuple(notes),
+                notes=(*notes, *(f.message() for f in findings)),
                 interval=model.interval_note(),
+                findings=findings,
             )
         ]
 

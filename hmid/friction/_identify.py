@@ -101,6 +101,13 @@ def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign,
         ) from None
     i0, i1 = sliding_segment(v, v_min, reach)
     n = i1 - i0
+    not_a_fall = _not_a_fall(t, v, v_min) if n < MIN_SLIDING_SAMPLES else ""
+    if not_a_fall:
+        raise LogError(
+            f"{log.source}: given role free_fall, but it is no free fall: {not_a_fall}; check "
+            "the log's role in the experiment's logs (a free fall slides one way, once, in a "
+            "fraction of a second)"
+        )
     if n < MIN_SLIDING_SAMPLES:
         raise LogError(
             f"{log.source}: the free-fall sliding segment has {n} samples with |v| > {v_min} m/s "
@@ -172,6 +179,23 @@ def _pool(thetas: list[np.ndarray], covs: list[np.ndarray]):
     q = float(sum((th - mean) @ w @ (th - mean) for w, th in zip(weights, thetas, strict=True)))
     dof = len(mean) * (len(thetas) - 1)
     return mean, cov * (max(1.0, q / dof) if dof > 0 else 1.0), q, dof
+
+
+def _not_a_fall(t: np.ndarray, v: np.ndarray, v_min: float) -> str:
+    """What shows that a log is not a free fall (empty if nothing does): its position moves
+    both ways, or barely at all over a long time."""
+    up, down = float(np.max(v)), float(np.min(v))
+    if up > v_min / 2 and down < -v_min / 2:
+        return (
+            f"its position moves both ways ({down:.3g} to {up:.3g} m/s) over {t[-1] - t[0]:.3g} s"
+        )
+    peak = max(up, -down)
+    if t[-1] - t[0] > 2.0 and peak < v_min:
+        return (
+            f"its position never moves faster than {peak:.3g} m/s over {t[-1] - t[0]:.3g} s "
+            f"(a fall slides at more than friction.v_min {v_min:g} m/s)"
+        )
+    return ""
 
 
 def identify_friction(

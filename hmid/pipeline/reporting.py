@@ -3,7 +3,7 @@ and the report document (Markdown + self-contained HTML)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -83,14 +83,26 @@ def _friction_text(estimate) -> str:
     return "\n".join(lines)
 
 
-def loop_summary(result) -> tuple[tuple[str, str], ...]:
+def loop_verdict(config, result) -> str:
+    """The loop's verdict; with ``loop.max_effects`` 0 no candidate was screened, so it cannot
+    say that nothing is attributable: only what the residual's diagnostics show."""
+    if config.loop is None or config.loop.max_effects > 0 or result.effects:
+        return result.verdict.value
+    from hmid.loop.result import Verdict
+
+    shown = "no pattern" if result.verdict is Verdict.NOTHING_ATTRIBUTABLE else "a pattern"
+    return f"nothing screened (loop.max_effects is 0); the residual's diagnostics show {shown}"
+
+
+def loop_summary(result, verdict: str | None = None) -> tuple[tuple[str, str], ...]:
     if result is None:
         return ()
     added = ", ".join(e.title for e in result.effects) or "no effect added"
     return (
         (
             "closing the loop",
-            f"{result.verdict.value}: {added}; held-out RMSE (one-step) {result.base_name} "
+            f"{verdict or result.verdict.value}: {added}; held-out RMSE (one-step) "
+            f"{result.base_name} "
             f"{result.before.rmse:.4g} → {result.after_name} {result.after.rmse:.4g} "
             f"{result.unit}",
         ),
@@ -235,7 +247,10 @@ def _tables(artifacts, units, out: _Folders) -> _Tables:
 
 
 def _findings(artifacts) -> list:
-    return [f for model in artifacts["fit"] for f in model.findings]
+    """The physical-sign findings: every model's, and the run's own checks of declared
+    quantities (a free-fall mass that makes friction negative, a motion's mass)."""
+    own = [f for model in artifacts["fit"] for f in model.findings]
+    return own + list(artifacts.get("checks", ()))
 
 
 def _draw(drawing, wanted, config, artifacts, units, out: _Folders) -> list[Figure]:
@@ -257,12 +272,17 @@ def _draw(drawing, wanted, config, artifacts, units, out: _Folders) -> list[Figu
     return figures
 
 
-def _loop(artifacts, out: _Folders, drawing) -> tuple[tuple[Section, ...], dict | None]:
+def _loop(config, artifacts, out: _Folders, drawing) -> tuple[tuple[Section, ...], dict | None]:
     if artifacts.get("loop") is None:
         return (), None
     from hmid.loop.report import loop_section
 
-    section, metrics = loop_section(artifacts["loop"], out.figures, out.csv, drawing=drawing)
+    # its wall times go to timings.json, not the report: two runs' reports are the same
+    result = replace(artifacts["loop"], costs=())
+    section, metrics = loop_section(result, out.figures, out.csv, drawing=drawing)
+    verdict = metrics["verdict"] = loop_verdict(config, result)
+    if verdict != result.verdict.value:
+        section = replace(section, text=section.text.replace(result.verdict.value, verdict, 1))
     return (section,), metrics
 
 
@@ -312,10 +332,16 @@ def _metrics(config, artifacts, units, metrics_loop: dict | None) -> dict:
         "friction": None if estimate is None else estimate.to_dict(),
         "rows": {"train": rows.train, "validation": rows.validation, "excluded": rows.excluded},
         "flags": list(artifacts["inventory"].flags),
+        "data_findings": [f.to_dict() for f in _data_findings(artifacts)],
     }
-    if metrics_loop is not None:
-        metrics["loop"] = metrics_loop
+    if metrics_loop is not None:  # its wall times go to timings.json: metrics are reproducible
+        metrics["loop"] = {k: v for k, v in metrics_loop.items() if k != "wall_s"}
     return metrics
+
+
+def _data_findings(artifacts) -> tuple:
+    """What the plausibility checks found in the data (:mod:`hmid.io.plausibility`)."""
+    return (*artifacts["inventory"].findings, *artifacts["rows"].findings)
 
 
 def _summary(config, artifacts, unit: str, friction_summary: tuple) -> tuple:
@@ -327,6 +353,10 @@ def _summary(config, artifacts, unit: str, friction_summary: tuple) -> tuple:
         artifacts["rows"],
     )
     findings = _findings(artifacts)
+    data = _data_findings(artifacts)
+    data_summary = (("⚠ data plausibility", "; ".join(f.message() for f in data)),) if data else ()
+    loop = artifacts.get("loop")
+    verdict = None if loop is None else loop_verdict(config, loop)
     sign_summary = ()
     if findings:
         sign_summary = (
@@ -343,13 +373,14 @@ def _summary(config, artifacts, unit: str, friction_summary: tuple) -> tuple:
         ),
         ("held-out max |error|", f"{best['max_abs_error (held-out)']:.4g} {unit}"),
         ("verdict", _verdict(best)),
+        *data_summary,
         *sign_summary,
         *friction_summary,
         (
             "rows: train / held-out / excluded",
             f"{rows.train} / {rows.validation} / {rows.excluded}",
         ),
-        *loop_summary(artifacts.get("loop")),
+        *loop_summary(artifacts.get("loop"), verdict),
     )
 
 
@@ -416,7 +447,7 @@ def write_outputs(
     tables = _tables(artifacts, units, out)
     coefficient_sections, wanted = _model_sections(artifacts["fit"], out)
     model_figures = _draw(drawing, wanted, config, artifacts, units, out)
-    loop_sections, metrics_loop = _loop(artifacts, out, drawing)
+    loop_sections, metrics_loop = _loop(config, artifacts, out, drawing)
     friction_sections, friction_summary = _friction(config, artifacts, out)
     free_sections, portable = _portable(config, artifacts, units, run_dir, out, drawing)
     metrics = _metrics(config, artifacts, units, metrics_loop) | portable

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from hmid.balance import Signals
-from hmid.denoise import Piece, denoise_log, pieces
+from hmid.denoise import Piece, check_time_base, denoise_log, pieces
 from hmid.errors import ConfigError, HmidWarning, LogError
 from hmid.experiment import ExperimentConfig, log_units
 from hmid.families import FitContext, FitData, Fitted
@@ -54,8 +54,24 @@ def load(config: ExperimentConfig) -> dict[str, LoadedLog]:
         flipped = {c: -log[c] for c in flips if c in log}
         if flipped:
             log = log.with_channels(**flipped)
+        _no_absurd_sample(log, path, _read_channels(config, entry.role))
         out[name] = LoadedLog(name, entry.role, log)
     return out
+
+
+def _read_channels(config: ExperimentConfig, role: str) -> tuple[str, ...]:
+    return config.rig.log_channels if role == "dynamic" else (config.rig.position,)
+
+
+def _no_absurd_sample(log: Log, path, channels) -> None:
+    """A sample no result survives (1e300 N: squares overflow, every fit breaks) stops the run
+    here, naming it; a milder outlier is a finding of the inventory."""
+    from hmid.io.plausibility import outliers
+
+    for channel in channels:
+        found = outliers(path.name, channel, log[channel], log.units[channel])
+        if found is not None and found.fatal:
+            raise LogError(f"{path}: channel {channel}: {found.text}")
 
 
 def load_depends(config: ExperimentConfig):
@@ -83,7 +99,11 @@ def denoise(config: ExperimentConfig, load: dict[str, LoadedLog]) -> dict[str, D
     smoother, differentiator = config.denoise.build()
     rig = config.rig
     out = {}
+    units = {log_name(config.resolve(e.path)): config.resolve(e.columns) for e in config.logs}
     for name, item in load.items():
+        # before any filter: a time unit off by 1000 would surface as a window misfit
+        time_unit = load_column_map(units[name]).channels["t"].unit
+        check_time_base(item.log, config.denoise.smoother.window_s, time_unit)
         kept, records = pieces(
             item.log, name, config.denoise.split_gaps_s, 3 * config.denoise.longest_window_s
         )
@@ -106,18 +126,51 @@ class Inventory:
     pieces: tuple[Piece, ...]
     flags: tuple[str, ...]
     free_falls: tuple[Log, ...]
+    findings: tuple = ()  # hmid.io.plausibility.DataFinding: what the physics makes implausible
 
 
 def inventory(
     config: ExperimentConfig, load: dict[str, LoadedLog], denoise: dict[str, Denoised]
 ) -> Inventory:
     channels = list(config.rig.log_channels)
+    summaries = tuple(summarize(n, i.role, i.pieces, channels) for n, i in denoise.items())
     return Inventory(
-        summaries=tuple(summarize(n, i.role, i.pieces, channels) for n, i in denoise.items()),
+        summaries=summaries,
         pieces=tuple(r for item in denoise.values() for r in item.records),
         flags=tuple(f for item in load.values() for f in item.log.flags),
         free_falls=tuple(p for i in denoise.values() if i.role == "free_fall" for p in i.pieces),
+        findings=plausibility(config, load, summaries),
     )
+
+
+def plausibility(config: ExperimentConfig, load: dict[str, LoadedLog], summaries) -> tuple:
+    """Every log judged against the physics (:mod:`hmid.io.plausibility`): its channels as
+    loaded, and the motion its smoothed position implies."""
+    from hmid.io import plausibility as p
+
+    rig, limits, found = config.rig, config.rig.limits(), []
+    maps = {log_name(config.resolve(e.path)): config.resolve(e.columns) for e in config.logs}
+    for summary in summaries:
+        item, columns = load[summary.name], load_column_map(maps[summary.name])
+        read = _read_channels(config, item.role)
+        specs = {c: columns.channels[c] for c in read}
+        own = {c: spec.unit for c, spec in specs.items()}
+        sensor = {
+            c: tuple(float(b) * p.unit_factor(spec.unit) for b in spec.range)
+            for c, spec in specs.items()
+            if spec.range is not None
+        }
+        channels = {c: item.log[c] for c in read}
+        found += p.check_channels(summary.name, channels, item.log.units, own, sensor, limits)
+        if rig.position is not None and summary.peak_speed is not None:
+            found.append(
+                p.motion(
+                    summary.name, rig.position, summary.peak_speed, summary.peak_accel or 0.0,
+                    summary.rate_hz, limits, columns.channels["t"].unit, own[rig.position],
+                    columns.sample_rate_hz,
+                )
+            )  # fmt: skip
+    return p.ordered([f for f in found if f is not None])
 
 
 def friction(config: ExperimentConfig, denoise: dict[str, Denoised]):
@@ -188,12 +241,45 @@ def split(config: ExperimentConfig, signals: Signals) -> Split:
     validation = np.concatenate([masks[name] for name in lengths])
     out = signals.with_roles(~validation, validation)
     for role, n in (("training", int(out.train.sum())), ("held-out", int(out.validation.sum()))):
+        if n < 10 and int(out.usable.sum()) < 10:  # the motion, not the split: say which key
+            raise ConfigError(_too_few_rows(config, signals, role, n))
         if n < 10:
             raise ConfigError(
                 f"split: only {n} {role} rows remain after excluding stopped motion; change "
                 "split.validation_fraction or split.validation_logs"
             )
     return Split(out, int((~out.usable).sum()))
+
+
+def checks(config: ExperimentConfig, split: Split, friction) -> tuple:
+    """Signs the rig's physics fixes whatever family is fitted (:mod:`hmid.balance.checks`):
+    the free falls' friction, and the force that the declared motion makes grow with the
+    acceleration."""
+    from hmid.balance.checks import friction_findings, motion_findings
+
+    rig = config.rig
+    return (*friction_findings(friction, rig), *motion_findings(rig, split.signals))
+
+
+def _too_few_rows(config: ExperimentConfig, signals: Signals, role: str, n: int) -> str:
+    """Why (almost) no row is usable: the deadband above every speed, or the filters' reach."""
+    from hmid.balance.signals import raw
+
+    found = f"split: only {n} {role} rows remain after excluding stopped motion"
+    if config.rig.position is None or not config.fit.exclude_stuck:
+        return f"{found}: the logs are too short for the filters' reach; record longer logs"
+    peak = float(np.max(np.abs(signals[raw("v")]))) if len(signals) else 0.0
+    deadband = config.fit.v_deadband
+    if peak < deadband:
+        return (
+            f"{found}: fit.v_deadband {deadband:g} m/s is above every speed in the logs (peak "
+            f"{peak:.3g} m/s), so every row counts as stopped; lower fit.v_deadband (e.g. "
+            f"0.002 m/s) or check the position's unit"
+        )
+    return (
+        f"{found}: the motion stops too often for fit.v_deadband {deadband:g} m/s (peak speed "
+        f"{peak:.3g} m/s); lower fit.v_deadband or set fit.exclude_stuck: false"
+    )
 
 
 @dataclass(frozen=True)
@@ -203,10 +289,31 @@ class Rows:
     train: int
     validation: int
     excluded: int
+    findings: tuple = ()  # hmid.io.plausibility.DataFinding: dynamic logs that give no rows
 
 
 def rows(config: ExperimentConfig, split: Split) -> Rows:
-    return Rows(split.n_train, split.n_validation, split.excluded)
+    from hmid.balance.signals import raw
+    from hmid.io.plausibility import no_rows
+
+    signals, found, seen = split.signals, [], {}
+    v = signals[raw("v")] if config.rig.position is not None else None
+    for start, stop in signals.bounds():  # segment by segment: no copy of a long log's rows
+        n, usable, peak = seen.get(signals.frame["log"].iat[start], (0, 0, 0.0))
+        if v is not None:
+            peak = max(peak, float(np.max(v[start:stop])), -float(np.min(v[start:stop])))
+        usable += int(np.count_nonzero(signals.usable[start:stop]))
+        seen[signals.frame["log"].iat[start]] = (n + stop - start, usable, peak)
+    for entry in config.logs_with_role("dynamic"):
+        name = log_name(config.resolve(entry.path))
+        n, usable, peak = seen.get(name, (0, 0, None))
+        found.append(
+            no_rows(name, n, usable, peak if v is not None else None, config.fit.v_deadband,
+                    config.rig.position)
+        )  # fmt: skip
+    return Rows(
+        split.n_train, split.n_validation, split.excluded, tuple(f for f in found if f is not None)
+    )
 
 
 def fit(

@@ -25,3 +25,21 @@ def test_only_a_positive_parameter_wholly_below_zero_is_flagged():
     assert text.startswith("balance: M = -95 kg (interval -96 … -94) is negative")
     assert "rig.channels.x.sign: -1" in text and "\n" not in text
     assert finding.to_dict()["message"] == text
+
+
+def test_a_familys_declared_positive_terms_are_checked():
+    from hmid.balance.checks import declared_positive
+
+    table = pd.DataFrame(
+        {
+            "term": ["1", "x", "P", "tanh(v/v0)", "v"],
+            "value": [5.0, -400.0, -2e-5, -0.3, 0.0],
+            "unit": ["N", "N/m", "N/Pa", "N", "N·s/m"],
+            "ci_low (95%)": [4.9, -420.0, -3e-5, -0.4, float("nan")],
+            "ci_high (95%)": [5.1, -380.0, -1e-5, -0.2, float("nan")],
+        }
+    )
+    found = declared_positive("sindy:stlsq", table, ["P", "tanh(v/v0)", "v"], position="x")
+    assert [f.parameter for f in found] == ["P", "tanh(v/v0)"]  # x is not declared; v left out
+    assert found[0].channels == ("P",) and found[1].channels == ("x",)
+    assert declared_positive("poly:x", table, (), position="x") == ()

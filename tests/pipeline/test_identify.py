@@ -109,7 +109,8 @@ def test_same_config_same_numbers_new_folder_cached_stages(first_run, workspace)
     assert metrics2 == metrics
     manifest = json.loads((run_dir2 / "manifest.json").read_text())
     stored = {k: v for k, v in manifest["stage_cached"].items() if v is not None}
-    assert set(stored) == {"friction", "fit", "compare", "loop"} and all(stored.values())
+    stored_stages = {"friction", "fit", "compare", "loop", "export", "freerun"}
+    assert set(stored) == stored_stages and all(stored.values())
     forced_dir, forced = run(_config(workspace), results=results, force=True)
     assert forced == metrics
     assert not any(json.loads((forced_dir / "manifest.json").read_text())["stage_cached"].values())
