@@ -23,8 +23,9 @@ that time, with the state that left first.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import lru_cache, partial
 
 import numpy as np
 
@@ -135,6 +136,11 @@ def equation(model, v0: float | None = None) -> Equation:
             else:
                 lhs.append(("mono", tuple((channel(c), p) for c, p in powers.items()),
                             float(value)))  # fmt: skip
+    if not any(kind == "accel" for kind, _, _ in (*rhs, *lhs)):
+        raise NotSimulable(
+            "the balance has no inertial term (no a, no motion): the rig imposes its position, "
+            "so a free run does not apply"
+        )
     return Equation(tuple(rhs), tuple(lhs), tuple(inputs), len(memory), tuple(lags), v0)
 
 
@@ -246,21 +252,27 @@ def _compiled(rhs, lhs, names, m, lag_names, position):
         a_l, b_l = _affine(lhs, cl, t, x, v, q, lag, u)
         return a_l + b_l * dy[1]
 
-    def run(ts, count, y0, values, cr, cl, taus, lag_times, noise):
+    def solve(ts, count, y0, values, cr, cl, taus, lag_times, noise, *, fixed: bool):
         table = jnp.concatenate([values, noise[None]])  # once, not at every evaluation
         args = (ts, count, table, cr, cl, taus, lag_times)
+        step = (ts[count - 1] - ts[0]) / (count - 1)
+        control = diffrax.ConstantStepSize() if fixed else diffrax.PIDController(
+            rtol=1e-6, atol=1e-9)  # fmt: skip
         solution = diffrax.diffeqsolve(
-            diffrax.ODETerm(field), diffrax.Tsit5(), ts[0], ts[-1], ts[1] - ts[0], y0, args=args,
-            saveat=diffrax.SaveAt(ts=ts), stepsize_controller=diffrax.PIDController(
-                rtol=1e-6, atol=1e-9), max_steps=64 * ts.shape[0], throw=False,
+            diffrax.ODETerm(field), diffrax.Tsit5(), ts[0], ts[-1], step, y0, args=args,
+            saveat=diffrax.SaveAt(ts=ts), stepsize_controller=control,
+            max_steps=(2 if fixed else 64) * ts.shape[0], throw=False,
         )  # fmt: skip
         ys = solution.ys
         force = jax.vmap(lambda t, y: explained(t, y, args))(ts, ys)
         return ys, force, solution.result == diffrax.RESULTS.successful
 
-    # one draw per row of the coefficients, the relaxation times and the disturbance
-    batch = jax.vmap(run, in_axes=(None, None, None, None, 0, None, 0, None, 0))
-    return jax.jit(run), jax.jit(batch)
+    # The band's draws: one per row of the coefficients, the relaxation times and the
+    # disturbance, each at steps of one sample (a disturbance sampled as noise has a kink at
+    # every sample, where an error-controlled step would shrink to nothing)
+    batch = jax.vmap(partial(solve, fixed=True), in_axes=(None, None, None, None, 0, None, 0,
+                                                          None, 0))  # fmt: skip
+    return jax.jit(partial(solve, fixed=False)), jax.jit(batch)
 
 
 def _rename(data, position: str):
@@ -406,7 +418,6 @@ class Simulator:
         output = any(k == "accel" for k, _, _ in eq.lhs)
         return Trajectory(np.asarray(t), ys[:, 0], ys[:, 1], force if output else None, bool(ok))
 
-
     def positions(self, t, inputs, x0, v0, memory0, draws, disturbances) -> np.ndarray:
         """The position (draws, len(t)) of one run per coefficient draw (each a tuple as
         :meth:`coefficients` gives) with its disturbance row, in one vectorised call."""
@@ -463,7 +474,10 @@ def coefficient_draws(model, sim: Simulator, n: int, seed: int) -> list[tuple] |
     cov = model.covariance
     if cov is None:
         return None
-    coef = rng.multivariate_normal(model.coef, cov, size=n, method="eigh")
+    cov = (cov + cov.T) / 2  # symmetric to rounding; eigh clips the rounding below zero
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        coef = rng.multivariate_normal(model.coef, cov, size=n, method="eigh")
     out = []
     for row in coef:
         draw = cr.copy()
@@ -524,7 +538,10 @@ def simulate_signals(
                                  signals["v"][first], [m[first] for m in memory_rows], sampled,
                                  noise)  # fmt: skip
             tail = (1 - level) / 2
-            bounds = tuple(np.nanquantile(runs, [tail, 1 - tail], axis=0))
+            runs = np.where(np.isfinite(runs), runs, np.nan)  # a draw that diverged: left out
+            with np.errstate(invalid="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN times: NaN bounds
+                bounds = tuple(np.nanquantile(runs, [tail, 1 - tail], axis=0))
         out.append(_block(model.rig, signals, rows, run, bounds))
     return FreeRun(model.name, tuple(out), level=level if sampled else None, band=band)
 

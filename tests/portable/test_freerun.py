@@ -104,3 +104,12 @@ def test_runs_over_draws_in_one_call_equal_one_run_each():
     for row, draw, e in zip(batch, draws, noise, strict=True):
         one = sim.integrate(t, u, 0.01, coefficients=draw, disturbance=e).x
         assert np.max(np.abs(row - one)) < 1e-3 * np.max(np.abs(one))
+
+
+def test_a_rig_that_imposes_its_position_has_no_free_run():
+    # the pneumatic seals' balance: force = A P + F0 + Fc sign(v), no inertial term
+    terms = [{"kind": "channel", "name": "A", "channel": "u"}, {"kind": "constant", "name": "F0"},
+             COULOMB]  # fmt: skip
+    model = _model(terms, [1e-3, 0.5, 3.0], explained="F", channels=("x", "u", "F"))
+    with pytest.raises(NotSimulable, match="imposes its position"):
+        model.simulate(np.linspace(0, 1, 11), {"u": np.zeros(11)}, x0=0.0)
