@@ -183,7 +183,7 @@ def declared_positive(
     ``ci_low``/``ci_high`` columns) for the terms its config declares ``positive``."""
     if not positive:
         return ()
-    from hmid.models.terms import Term
+    from hmid.balance.monomial import Monomial
 
     low, high = (c for c in table.columns if c.startswith("ci_"))
     rows = pd.DataFrame(
@@ -193,7 +193,7 @@ def declared_positive(
     reads = {}
     for term in positive:
         try:
-            reads[term] = Term.parse(term).variables
+            reads[term] = Monomial.parse(term).variables
         except (ValueError, HmidError):  # a term that is no monomial (tanh(v/v0)): v's
             reads[term] = tuple(c for c in ("x", "v", "P") if c in term)
     return sign_findings(model, rows, reads, position)

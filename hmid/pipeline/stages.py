@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -392,16 +393,21 @@ def freerun(config: ExperimentConfig, split: Split, fit: list[Fitted], export: d
     from hmid.portable.freerun import FreeRun, blocks, simulate_signals
 
     spans = blocks(split.signals)
-    out = {}
+    out: dict = {}
+    # models are independent: shared with a worker, as the fit stage shares the families
+    tasks = Tasks(ahead=1) if len(export) > 1 else Tasks(workers=0)
     for name, document in export.items():
         if isinstance(document, str):
             out[name] = FreeRun(name, (), document)
             continue
         fitted = next(m for m in fit if m.name == name)
         draws = fitted.model.posterior_draws() if _draws(fitted) else None
-        model = Model(document, draws=draws)
-        out[name] = simulate_signals(model, split.signals, spans, draws=FREE_RUN_DRAWS,
-                                     level=FREE_RUN_LEVEL, seed=config.seed)  # fmt: skip
+        out[name] = None  # keeps the models' order
+        run = partial(simulate_signals, draws=FREE_RUN_DRAWS, level=FREE_RUN_LEVEL,
+                      seed=config.seed)  # fmt: skip
+        tasks.submit(run, Model(document, draws=draws), split.signals, spans)
+    for run in tasks.results():
+        out[run.model] = run
     return out
 
 
