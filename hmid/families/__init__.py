@@ -11,6 +11,7 @@ from hmid.families.base import (
     FitSummary,
     Fitted,
     FittedModel,
+    FittedTerms,
     make_family,
 )
 
@@ -24,5 +25,6 @@ __all__ = [
     "FitSummary",
     "Fitted",
     "FittedModel",
+    "FittedTerms",
     "make_family",
 ]

@@ -14,10 +14,8 @@ Config (``models: [{family: balance, ...}]``)::
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Annotated, ClassVar, Literal
 
-import numpy as np
 import pandas as pd
 from pydantic import Field, SerializeAsAny, field_validator
 
@@ -39,7 +37,7 @@ from hmid.families.base import (
     FitData,
     FitSummary,
     Fitted,
-    FittedModel,
+    FittedTerms,
 )
 from hmid.intervals import IntervalNote
 from hmid.stats import residual_tau_int
@@ -117,7 +115,7 @@ class BalanceSpec(FamilySpec):
         coefficients = table.rename(
             columns={"lower": f"ci_low ({level})", "upper": f"ci_high ({level})"}
         ).drop(columns=["positive"])
-        model = FittedBalance(fitted.structure, fitted.columns.names, fitted.fit.coef.copy())
+        model = FittedTerms(fitted.structure, fitted.columns.names, fitted.fit.coef.copy())
         notes = [
             f"least squares on {int(rows.sum())} rows; {100 * self.confidence:g} % intervals "
             "from the residual's autocovariance, the profiled parameters' included; calibrated "
@@ -146,24 +144,6 @@ class BalanceSpec(FamilySpec):
                 ),
             )
         ]
-
-
-@dataclass(frozen=True)
-class FittedBalance(FittedModel):
-    """Terms at their fitted parameters and coefficients ``coef`` (in column order)."""
-
-    fitted: Structure
-    names: tuple[str, ...]
-    coef: np.ndarray
-
-    def predict(self, data: FitData) -> np.ndarray:
-        columns = self.fitted.columns(data.signals)
-        if columns.names != self.names:
-            raise ValueError(f"columns {columns.names} differ from the fitted {self.names}")
-        return (columns.values @ self.coef)[data.rows]
-
-    def structure(self) -> Structure:
-        return self.fitted
 
 
 def _equation(data: FitData, structure: Structure, table: pd.DataFrame) -> str:

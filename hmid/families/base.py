@@ -131,6 +131,25 @@ class FigureSpec:
 
 
 @dataclass(frozen=True)
+class FittedTerms(FittedModel):
+    """A model that is balance terms at their fitted parameters (``structure``) times
+    coefficients ``coef`` in column order: what a least-squares family fits, ready to use."""
+
+    fitted: Structure
+    names: tuple[str, ...]
+    coef: np.ndarray
+
+    def predict(self, data: FitData) -> np.ndarray:
+        columns = self.fitted.columns(data.signals)
+        if columns.names != self.names:
+            raise ValueError(f"columns {columns.names} differ from the fitted {self.names}")
+        return (columns.values @ self.coef)[data.rows]
+
+    def structure(self) -> Structure:
+        return self.fitted
+
+
+@dataclass(frozen=True)
 class Extras:
     text: str
     tables: list  # (frame, caption)
@@ -268,8 +287,9 @@ class FamilySpec(BaseModel):
         return cls()
 
     def model_names(self) -> list[str]:
-        """Names of the models this entry fits (checked for clashes at load)."""
-        raise NotImplementedError
+        """Names of the models this entry fits (checked for clashes at load): by default one,
+        named by the entry's ``name`` if it has one, else by its family."""
+        return [str(getattr(self, "name", self.family))]
 
     def check(self, rig: RigSection) -> None:
         """ValueError (one line) if this family cannot model ``rig``'s balance."""

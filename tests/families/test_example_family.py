@@ -22,7 +22,7 @@ from hmid.families import (
     FitData,
     FitSummary,
     Fitted,
-    FittedModel,
+    FittedTerms,
 )
 from hmid.intervals import IntervalNote
 from hmid.stats import residual_tau_int
@@ -34,28 +34,24 @@ class LinearSpringSpec(FamilySpec):  # 1. a config section, named by its ``famil
     family: Literal["linear_spring"] = "linear_spring"
     confidence: float = 0.95
 
-    def model_names(self) -> list[str]:  # 2. the models it fits, checked for clashes at load
-        return ["linear_spring"]
-
-    def check(self, rig: RigSection) -> None:  # 3. can it model this rig? (one-line errors)
+    def check(self, rig: RigSection) -> None:  # can it model this rig? (one-line errors)
         super().check(rig)  # a slot to fill, every other term known
         self.channels_needed(rig, ["P", rig.position])
 
-    def fit(self, data: FitData, context: FitContext) -> list[Fitted]:  # 4. FitData: the rows
-        s, x = data.slot_sign, data.rig.position  # 5. terms in the rig language
+    def fit(self, data: FitData, context: FitContext) -> list[Fitted]:  # 2. FitData: the rows
+        s, x = data.slot_sign, data.rig.position  # 3. terms in the rig language
         terms = [make_term({"kind": "channel", "name": "A", "channel": "P", "sign": s}),
                  make_term({"kind": "constant", "name": "F0", "sign": s}),
                  make_term({"kind": "channel", "name": "k", "channel": x, "sign": -s,
                             "positive": True})]  # fmt: skip
-        fitted = fit_structure(
-            Structure.of(terms), data.signals
-        )  # least squares on the training rows
+        fitted = fit_structure(Structure.of(terms), data.signals)  # on the training rows
         tau = residual_tau_int(fitted.residual, data.signals)
         return [
-            Fitted(  # 6. what the comparison, the report and the loop read
+            Fitted(  # 4. what the comparison, the report and the loop read
                 name="linear_spring",
                 family=self.family,
-                model=FittedLinearSpring(fitted.structure, fitted.fit.coef.copy()),
+                # 5. a model that predicts any rows and states its terms
+                model=FittedTerms(fitted.structure, fitted.columns.names, fitted.fit.coef.copy()),
                 kind="one-step",
                 fit_summary=FitSummary.of_fit(
                     self.family,
@@ -67,7 +63,7 @@ class LinearSpringSpec(FamilySpec):  # 1. a config section, named by its ``famil
                 ),
                 coefficients=parameters(fitted, data.signals, self.confidence),
                 equation="F_m = A P + F0 - k x",
-                interval=IntervalNote(  # 8. what its intervals are, who calibrated them
+                interval=IntervalNote(  # 6. what its intervals are, who calibrated them
                     self.confidence,
                     "OLS + autocovariance sandwich",
                     tau,
@@ -76,17 +72,6 @@ class LinearSpringSpec(FamilySpec):  # 1. a config section, named by its ``famil
                 ),
             )
         ]
-
-
-class FittedLinearSpring(FittedModel):  # 7. predicts any rows, states its terms
-    def __init__(self, structure: Structure, coef: np.ndarray) -> None:
-        self._structure, self.coef = structure, coef
-
-    def predict(self, data: FitData) -> np.ndarray:
-        return (self._structure.columns(data.signals).values @ self.coef)[data.rows]
-
-    def structure(self) -> Structure:
-        return self._structure
 
 
 # The shipped pipeline's registry stays as it was: the example is checked here, not offered.
