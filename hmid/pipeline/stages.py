@@ -407,7 +407,7 @@ def freerun(config: ExperimentConfig, split: Split, fit: list[Fitted], export: d
                       seed=config.seed)  # fmt: skip
         tasks.submit(run, Model(document, draws=draws), split.signals, spans)
     for run in tasks.results():
-        out[run.model] = run
+        out[run.model] = run.thinned()  # scores of the whole runs; the figure's samples
     return out
 
 

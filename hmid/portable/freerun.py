@@ -24,7 +24,7 @@ that time, with the state that left first.
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache, partial
 
 import numpy as np
@@ -323,10 +323,27 @@ class FreeRun:
     skipped: str = ""  # why there is no free run (one line)
     level: float | None = None  # the band's nominal level, where the runs have one
     band: str = ""  # what the band is made of
+    kept_scores: dict | None = None  # the scores of the whole runs, once they are thinned
+
+    def thinned(self, points: int = 1500) -> FreeRun:
+        """The same runs at most ``points`` samples each, for a figure, with the scores of the
+        whole runs kept: what a run's cache and report hold (not a copy of the logs)."""
+        blocks = []
+        for r in self.runs:
+            keep = slice(None, None, max(1, -(-len(r.t) // points)))
+            band = None if r.band is None else (r.band[0][keep], r.band[1][keep])
+            force = None if r.explained_simulated is None else r.explained_simulated[keep]
+            blocks.append(replace(r, t=r.t[keep], x_measured=r.x_measured[keep],
+                                  x_simulated=r.x_simulated[keep],
+                                  explained_measured=r.explained_measured[keep],
+                                  explained_simulated=force, band=band))  # fmt: skip
+        return replace(self, runs=tuple(blocks), kept_scores=self.scores())
 
     def scores(self) -> dict:
         """Fit % of x (NRMSE fit, as MATLAB's compare), RMSE of x and of the explained
         quantity, over the blocks' samples before any divergence; divergences counted."""
+        if self.kept_scores is not None:
+            return self.kept_scores
         ok = [r for r in self.runs if r.diverged_at is None]
         out = {"free-run blocks": len(self.runs), "diverged": len(self.runs) - len(ok)}
         if not ok:
