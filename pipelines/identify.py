@@ -75,12 +75,15 @@ def analyse(config: ExperimentConfig, stages: tuple[str, ...], cache: Path, *, f
 
 
 def findings(artifacts: dict) -> list[str]:
-    """What the run must say on the console: physical signs that fail, a friction law that the
-    free falls reject."""
-    out = [finding.message() for model in artifacts["fit"] for finding in model.findings]
+    """What the run must say on the console: models that failed, physical signs that fail, a
+    friction law that the free falls reject, the loop's notes."""
+    out = [failed.message() for failed in getattr(artifacts["fit"], "failed", ())]
+    out += [finding.message() for model in artifacts["fit"] for finding in model.findings]
     law = artifacts["friction"].law if artifacts.get("friction") is not None else None
     if law is not None and law.rejected:
         out.append(law.message())
+    if artifacts.get("loop") is not None:  # a base that fell back, an addition that did worse
+        out.extend(artifacts["loop"].notes)
     return out
 
 

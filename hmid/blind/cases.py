@@ -108,6 +108,10 @@ def outcome(case: Case, result) -> dict[str, Any]:
         "verdict": result.verdict.value,
         "rmse before [N]": result.before.rmse,
         "rmse after [N]": result.after.rmse,
+        # an addition after which the held-out error rose (reported, never decided on)
+        "added, then worse": any(n.startswith("added ") for n in result.notes),
+        # every printed interval contains its estimate: those that do not, by table
+        "intervals without their estimate": "; ".join(_outside(result)),
     }
     if case.compare and added and added[0] in expect:
         table = result.effects[0].parameters.set_index("parameter")
@@ -129,3 +133,13 @@ def outcome(case: Case, result) -> dict[str, Any]:
     else:
         row["correct"] = bool(expect & set(named))
     return row
+
+
+def _outside(result) -> list[str]:
+    """Every parameter of the loop's tables whose interval excludes its estimate."""
+    from hmid.loop.result import outside
+
+    tables = [(result.base_name, result.base_parameters)]
+    for e in result.effects:
+        tables += [(e.name, e.parameters), *((a.name, a.parameters) for a in e.alternatives)]
+    return [f"{name}: {p}" for name, table in tables for p in outside(table)]

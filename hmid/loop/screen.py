@@ -24,9 +24,9 @@ import numpy as np
 
 from hmid.balance import Signals, StructureFit, descend, parameters, profile, refine
 from hmid.balance import fit as fit_structure
-from hmid.balance.statistics import profile_interval, residual_tau_int
+from hmid.balance.statistics import residual_tau_int
 from hmid.loop.candidates import Candidate
-from hmid.loop.statistics import NestedTest
+from hmid.loop.statistics import NestedTest, likelihood_interval
 
 #: every 4th point of a model's hyperparameter grid (ratio 1.17^4 = 1.9 on the SLS's tau grid),
 #: then a walk from the best: each candidate re-profiles the model twice, and this is most of
@@ -123,7 +123,9 @@ def screen(current: StructureFit, candidate: Candidate, signals: Signals, confid
     if candidate.hyper is not None:
         _fill(fits, index, signals, n_eff, confidence)
         sse = np.array([fits[j].sse if j in fits else np.inf for j in range(len(grid))])
-        interval = profile_interval(np.asarray(grid, dtype=float), sse, n_eff, confidence)
+        # refined at the crossings, around the estimate refined between grid points
+        estimate = (joint.structure.terms[-1].value, joint.sse)
+        interval = likelihood_interval(grid, sse, n_eff, confidence, estimate, candidate.hyper.log)
     collinear = _rank_deficient(joint)
     ok = not collinear and consistent(candidate, joint, signals, confidence)
     return Screen(candidate, joint, test, interval, ok, n_eff, collinear)

@@ -55,11 +55,13 @@ def _fit_table(artifacts, unit: str) -> pd.DataFrame:
 
 def _verdict(best) -> str:
     r2 = best["r2 (held-out)"]
+    # R² as a number (a rounded "100 %" beside "unexplained structure" reads as a
+    # contradiction); whether structure remains is the loop's to say, once
     if r2 >= R2_ACCEPT:
-        return f"{best['model']} explains {100 * r2:.0f} % of the held-out variation"
+        return f"{best['model']}: held-out R² {r2:.4f} (accepted at {R2_ACCEPT})"
     return (
-        f"no model reaches R² {R2_ACCEPT} on held-out data (best {r2:.2f}): structure remains "
-        "that these families cannot represent (e.g. viscoelastic memory); see the residuals"
+        f"no model reaches R² {R2_ACCEPT} on held-out data (best {r2:.4f}); these families may "
+        "lack a physical effect (e.g. viscoelastic memory): see the residuals"
     )
 
 
@@ -291,6 +293,9 @@ def write_outputs(
         "model_files": model_files,
         "free_run": free_table.replace({np.nan: None}).to_dict(orient="records"),
     }
+    failed = getattr(fitted, "failed", ())  # models left out, each with its reason
+    if failed:
+        metrics["failed"] = [f.__dict__ for f in failed]
     if metrics_loop is not None:
         metrics["loop"] = metrics_loop
     write_json(run_dir / "metrics.json", metrics)
@@ -314,6 +319,7 @@ def write_outputs(
             ("held-out max |error|", f"{best['max_abs_error (held-out)']:.4g} {unit}"),
             ("verdict", _verdict(best)),
             *sign_summary,
+            *((("⚠ failed fits", "; ".join(f.message() for f in failed)),) if failed else ()),
             *friction_summary,
             ("rows: train / held-out / excluded", f"{n_train} / {n_val} / {rows.excluded}"),
             *loop_summary(artifacts.get("loop")),
