@@ -265,8 +265,10 @@ def finish(spec, signals, base, start, current, effects, decisions, held, steps=
         residual_before=residual_before,
         residual_after=current_residual,
         steps=tuple(steps),
-        notes=(*((finding,) if finding else ()),
-               *rises(before_scores, steps, signals.unit("target"), held_out)),
+        notes=(
+            *((finding,) if finding else ()),
+            *rises(before_scores, steps, signals.unit("target"), held_out),
+        ),
     )
 
 
