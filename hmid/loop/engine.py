@@ -142,7 +142,8 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
     clock.lap(part)
     result = finish(spec, signals, base, start, current, effects, decisions, held, steps,
                     held_out="logs" if across_logs else "rows",
-                    known_level=setting.known_level if refit is not None else None)  # fmt: skip
+                    known_level=setting.known_level if refit is not None else None,
+                    fitted_level=setting.fitted_level if refit is not None else None)  # fmt: skip
     clock.lap("diagnostics and verdict")
     return replace(result, costs=clock.laps)
 

@@ -217,12 +217,14 @@ def _residual_before(signals: Signals, prediction: np.ndarray) -> np.ndarray:
 
 
 def finish(spec, signals, base, start, current, effects, decisions, held, steps=(),
-           held_out: str = "rows", known_level: str | None = None) -> LoopResult:  # fmt: skip
+           held_out: str = "rows", known_level: str | None = None,
+           fitted_level: str | None = None) -> LoopResult:  # fmt: skip
     """Diagnostics before (the base model's own residual) and after, and the verdict; the
     held-out error before and after on ``held``, the comparison's held-out rows (a lead's reach
     at segment ends is left out of the tests, not of the reported error; ``held_out`` says what
     they are: "rows" or whole "logs"; ``known_level``: whence the declared Coulomb level the
-    base took as known, which its refit tests)."""
+    base took as known, which its refit tests; ``fitted_level``: the declared level's name
+    where the base fitted it, which its refit, the same column, is called in the tables)."""
     residual_before = _residual_before(signals, base.prediction)
     before = diagnose(residual_before, signals, max_lag_s=spec.max_lag_s, stride_s=spec.stride_s)
     after, current_residual = before, residual_before  # nothing added: after is before
@@ -246,6 +248,11 @@ def finish(spec, signals, base, start, current, effects, decisions, held, steps=
                                 (before_scores, start.scores(held)))  # fmt: skip
     final = final_parameters(current, len(start.structure.terms), base.name, effects, signals,
                              spec.confidence)  # fmt: skip
+    if fitted_level is not None:  # the refit replaced the fitted level: its name, not a change
+        rename = {"dFc": fitted_level}
+        table["parameter"] = table["parameter"].replace(rename)
+        ours = final["part"] == base.name
+        final.loc[ours, "parameter"] = final.loc[ours, "parameter"].replace(rename)
     return LoopResult(
         base_name=base.name,
         after_name=base.name + "".join(f" + {e.name}" for e in effects),

@@ -46,12 +46,15 @@ class Setting:
     # where the declared Coulomb level is taken as known: whence ("the free-fall estimate", "its
     # declared value"); the loop's refit of it is then a test of that hypothesis
     known_level: str | None = None
+    fitted_level: str | None = None  # the declared Coulomb term's name where it is fitted
 
     @classmethod
     def of(cls, rig: RigSection) -> Setting:
         sign = rig.resolved_friction_sign
         if sign is not None:
-            return cls(sign, rig.position, rig.model_channels, known_level=_known_level(rig))
+            known, fitted = _levels(rig)
+            return cls(sign, rig.position, rig.model_channels, known_level=known,
+                       fitted_level=fitted)  # fmt: skip
         return cls(against_motion(rig), rig.position, rig.model_channels, declared=False)
 
     @property
@@ -60,13 +63,16 @@ class Setting:
         return tuple(c for c in self.channels if c not in DERIVED and c != self.position)
 
 
-def _known_level(rig: RigSection) -> str | None:
+def _levels(rig: RigSection) -> tuple[str | None, str | None]:
+    """Whence the declared Coulomb level is known, or the name of the one that is fitted."""
     from hmid.balance.kinds import CoulombTerm, SmoothCoulombTerm
 
     for term in rig.balance:
-        if isinstance(term, CoulombTerm | SmoothCoulombTerm) and term.known:
-            return "the free-fall estimate" if term.value is None else "its declared value"
-    return None
+        if isinstance(term, CoulombTerm | SmoothCoulombTerm):
+            if not term.known:
+                return None, term.name
+            return ("the free-fall estimate" if term.value is None else "its declared value"), None
+    return None, None
 
 
 def against_motion(rig: RigSection) -> int | None:
