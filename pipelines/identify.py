@@ -79,6 +79,8 @@ def findings(artifacts: dict) -> list[str]:
     friction law that the free falls reject, the loop's notes."""
     out = [failed.message() for failed in getattr(artifacts["fit"], "failed", ())]
     out += [finding.message() for model in artifacts["fit"] for finding in model.findings]
+    if artifacts.get("friction") is not None:  # a friction level of the wrong sign
+        out.extend(artifacts["friction"].impossible())
     law = artifacts["friction"].law if artifacts.get("friction") is not None else None
     if law is not None and law.rejected:
         out.append(law.message())
