@@ -157,6 +157,8 @@ def outside(table: pd.DataFrame) -> list[str]:
     """The parameters of a table (columns parameter, value, lower, upper) whose printed
     interval does not contain its estimate (an undefined interval, NaN, contains nothing and
     claims nothing)."""
+    if table.empty:
+        return []
     value, low, high = (table[c].to_numpy(dtype=float) for c in ("value", "lower", "upper"))
     bad = (low > value) | (value > high)  # NaN compares False: undefined, not wrong
     return [str(p) for p in table["parameter"][bad]]
