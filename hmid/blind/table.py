@@ -85,6 +85,12 @@ def check_targets(outcomes: pd.DataFrame, suite: BlindSuite) -> pd.DataFrame:
             names = " or ".join(effect.expect)
             label = f"{effect.kind} ({t.strength}): {names} named first (alone or among rivals)"
             rows.append((label, rate, ">=", t.right_first))
+    for declared in suite.declared:
+        group = outcomes[(outcomes["effect"] == declared.name)
+                         & (outcomes["strength"] == t.strength)]  # fmt: skip
+        if not group.empty:
+            label = f"{declared.name} ({t.strength}): the wrong declared term named, no effect"
+            rows.append((label, group["correct"].mean(), ">=", t.right_first))
     clean = outcomes[outcomes["effect"] == CLEAN]
     if not clean.empty:
         rate = (clean["added"].fillna("") != "").mean()
