@@ -228,9 +228,16 @@ def finish(spec, signals, base, start, current, effects, decisions, held, steps=
     base took as known, which its refit tests; ``fitted_level``: the declared level's name
     where the base fitted it, which its refit, the same column, is called in the tables)."""
     residual_before = _residual_before(signals, base.prediction)
+    before_scores = score(signals.target[held], base.prediction[held], "one-step")
+    table = parameters(start, signals, spec.confidence)
+    finding = None
+    if known_level is not None:
+        finding = level_finding(table, known_level, signals.unit("target"),
+                                (before_scores, start.scores(held)))  # fmt: skip
     before = diagnose(residual_before, signals, max_lag_s=spec.max_lag_s, stride_s=spec.stride_s)
     after, current_residual = before, residual_before  # nothing added: after is before
-    if effects:
+    corrected = bool(effects) or finding is not None  # a known level found wrong: corrected
+    if corrected:
         current_residual = current.residual
         after = diagnose(
             current_residual, signals, max_lag_s=spec.max_lag_s, stride_s=spec.stride_s
@@ -241,13 +248,7 @@ def finish(spec, signals, base, start, current, effects, decisions, held, steps=
         hint = sparse_hint(current_residual, signals, after.strongest[0])
         if hint.heldout_r2 <= 0 and not hint.periodic:
             hint = None  # a hint that explains no held-out variance is no hint
-    before_scores = score(signals.target[held], base.prediction[held], "one-step")
-    after_scores = before_scores if not effects else current.scores(held)
-    table = parameters(start, signals, spec.confidence)
-    finding = None
-    if known_level is not None:
-        finding = level_finding(table, known_level, signals.unit("target"),
-                                (before_scores, start.scores(held)))  # fmt: skip
+    after_scores = current.scores(held) if corrected else before_scores
     final = final_parameters(current, len(start.structure.terms), base.name, effects, signals,
                              spec.confidence)  # fmt: skip
     if fitted_level is not None:  # the refit replaced the fitted level: its name, not a change
@@ -257,7 +258,9 @@ def finish(spec, signals, base, start, current, effects, decisions, held, steps=
         final.loc[ours, "parameter"] = final.loc[ours, "parameter"].replace(rename)
     return LoopResult(
         base_name=base.name,
-        after_name=base.name + "".join(f" + {e.name}" for e in effects),
+        after_name=base.name
+        + (" + dFc (its known friction level refitted)" if finding and not effects else "")
+        + "".join(f" + {e.name}" for e in effects),
         unit=signals.unit("target"),
         base_parameters=table.drop(columns=["positive"]),
         final_parameters=final,

@@ -33,6 +33,8 @@ def test_a_wrong_known_friction_level_is_a_finding_not_an_effect(synthetic, tmp_
     assert f"{FC - DECLARED:.3g} N above its declared value" in finding
     assert "these data cannot separate them" in finding
     assert not result.effects  # the refit base holds the correction: no candidate takes it
+    # the after is the base with its level refitted, and says so
+    assert result.after.rmse < result.before.rmse and "dFc" in result.after_name
     dfc = result.base_parameters.set_index("parameter").loc["dFc"]
     assert dfc["lower"] < FC - DECLARED < dfc["upper"]
 
