@@ -48,7 +48,7 @@ STAGES = (
     Stage(
         "loop",
         s.loop,
-        ("split", "fit"),
+        ("split", "fit", "friction"),
         lambda c: {"loop": c.loop.model_dump(mode="json") if c.loop else None},
     ),
     Stage("export", s.export, ("split", "fit", "friction"), _section("denoise", "fit")),

@@ -143,6 +143,7 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
     result = finish(spec, signals, base, start, current, effects, decisions, held, steps,
                     held_out="logs" if across_logs else "rows",
                     known_level=setting.known_level if refit is not None else None,
+                    known_se=setting.known_se,
                     fitted_level=setting.fitted_level if refit is not None else None)  # fmt: skip
     clock.lap("diagnostics and verdict")
     return replace(result, costs=clock.laps)

@@ -220,20 +220,22 @@ def _residual_before(signals: Signals, prediction: np.ndarray) -> np.ndarray:
 
 def finish(spec, signals, base, start, current, effects, decisions, held, steps=(),
            held_out: str = "rows", known_level: str | None = None,
-           fitted_level: str | None = None) -> LoopResult:  # fmt: skip
+           fitted_level: str | None = None, known_se: float = 0.0) -> LoopResult:  # fmt: skip
     """Diagnostics before (the base model's own residual) and after, and the verdict; the
     held-out error before and after on ``held``, the comparison's held-out rows (a lead's reach
     at segment ends is left out of the tests, not of the reported error; ``held_out`` says what
     they are: "rows" or whole "logs"; ``known_level``: whence the declared Coulomb level the
-    base took as known, which its refit tests; ``fitted_level``: the declared level's name
-    where the base fitted it, which its refit, the same column, is called in the tables)."""
+    base took as known, which its refit tests, and ``known_se`` its standard error;
+    ``fitted_level``: the declared level's name where the base fitted it, which its refit, the
+    same column, is called in the tables)."""
     residual_before = _residual_before(signals, base.prediction)
     before_scores = score(signals.target[held], base.prediction[held], "one-step")
     table = parameters(start, signals, spec.confidence)
     finding = None
     if known_level is not None:
         finding = level_finding(table, known_level, signals.unit("target"),
-                                (before_scores, start.scores(held)))  # fmt: skip
+                                (before_scores, start.scores(held)), known_se,
+                                spec.confidence)  # fmt: skip
     before = diagnose(residual_before, signals, max_lag_s=spec.max_lag_s, stride_s=spec.stride_s)
     after, current_residual = before, residual_before  # nothing added: after is before
     corrected = bool(effects) or finding is not None  # a known level found wrong: corrected
@@ -284,16 +286,22 @@ def finish(spec, signals, base, start, current, effects, decisions, held, steps=
     )
 
 
-def level_finding(table: pd.DataFrame, known: str, unit: str, scores) -> str | None:
-    """The declared Coulomb level is a hypothesis: where the base's refit of it (dFc) has an
-    interval that excludes zero, a finding of its own, with what could cause it (an honest set:
-    these data cannot tell the causes apart) and what the refit alone did to the held-out error
-    (never credited to a candidate)."""
+def level_finding(table: pd.DataFrame, known: str, unit: str, scores, known_se: float = 0.0,
+                  confidence: float = 0.95) -> str | None:  # fmt: skip
+    """The declared Coulomb level is a hypothesis: where the base's refit of it (dFc) differs
+    from zero beyond the uncertainty of both (its interval's half-width and the known level's
+    ``known_se``, combined in quadrature), a finding of its own, with what could cause it (an
+    honest set: these data cannot tell the causes apart) and what the refit alone did to the
+    held-out error (never credited to a candidate)."""
+    from scipy import stats
+
     rows = table[table["parameter"] == "dFc"]
     if rows.empty:
         return None
     row = rows.iloc[0]
-    if not (row["lower"] > 0 or row["upper"] < 0):
+    half = (row["upper"] - row["lower"]) / 2
+    reach = float(np.hypot(half, stats.norm.ppf(0.5 + confidence / 2) * known_se))
+    if not abs(row["value"]) > reach:  # NaN: undefined, no finding
         return None
     before, refitted = scores
     side = "above" if row["value"] > 0 else "below"

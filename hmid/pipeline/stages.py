@@ -311,19 +311,23 @@ def _draws(model: Fitted):
     return getattr(model.model, "posterior_draws", None)
 
 
-def loop(config: ExperimentConfig, split: Split, fit: Fits):
+def loop(config: ExperimentConfig, split: Split, fit: Fits, friction=None):
     """The loop on the model ``loop.base`` names (None if the experiment has no loop). If that
     model failed, the loop starts from the converged model with the lowest training RMSE, and
     says so; a loop that fails on its data is reported (a warning, no loop section), never a
-    traceback."""
+    traceback. ``friction``: the free falls' estimate, whose uncertainty a refit of its level
+    is compared with."""
     if config.loop is None:
         return None
     from hmid.loop import LoopBase, Setting, run_loop
 
     model, note = loop_base(config.loop.base, fit)
     base = LoopBase.of(model, FitData(split.signals, config.rig))
+    setting = Setting.of(config.rig)
+    if friction is not None and setting.known_level is not None:
+        setting = replace(setting, known_se=float(friction.se.get("Fc", 0.0)))
     try:
-        result = run_loop(split.signals, base, config.loop, Setting.of(config.rig), config.seed,
+        result = run_loop(split.signals, base, config.loop, setting, config.seed,
                           across_logs=config.split.kind == "logs")  # fmt: skip
     except (*FIT_ERRORS, ValueError, IndexError) as err:
         warnings.warn(f"loop: it failed on the base {model.name}: {' '.join(str(err).split())}; "

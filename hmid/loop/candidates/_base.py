@@ -46,6 +46,7 @@ class Setting:
     # where the declared Coulomb level is taken as known: whence ("the free-fall estimate", "its
     # declared value"); the loop's refit of it is then a test of that hypothesis
     known_level: str | None = None
+    known_se: float = 0.0  # its standard error (the free-fall estimate's; 0 for a value)
     fitted_level: str | None = None  # the declared Coulomb term's name where it is fitted
 
     @classmethod
