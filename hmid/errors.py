@@ -32,6 +32,10 @@ class SignalError(HmidError, ValueError):
     """A signal cannot be processed as asked (window longer than the log, non-finite input)."""
 
 
+class FitError(HmidError, RuntimeError):
+    """No model of an experiment could be fitted (each failure said with its reason)."""
+
+
 class SimulationError(HmidError, RuntimeError):
     """A simulation left the model's domain of validity (e.g. the rig's string went slack)."""
 

@@ -27,6 +27,7 @@ from hmid.blind import (
     Case,
     check_targets,
     dataset_for,
+    declare,
     experiment_for,
     load_suite,
     outcome,
@@ -73,7 +74,8 @@ def run_case(case: Case, dataset: dict, experiment: dict, source: str) -> dict[s
         folder = Path(tmp) / "data"
         write_dataset(HydroMuscleDataset.model_validate(dataset_for(dataset, case)), folder)
         index = yaml.safe_load((folder / "index.yaml").read_text(encoding="utf-8"))["logs"]
-        config = experiment_from(experiment_for(experiment, folder, index), source, folder)
+        declared = declare(experiment, case)  # a known term declared wrong, where the case does
+        config = experiment_from(experiment_for(declared, folder, index), source, folder)
         # findings (an effect may drive a sensor to its rails) go in the outcome, not the console
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", HmidWarning)

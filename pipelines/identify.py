@@ -50,7 +50,7 @@ STAGES = (
     Stage(
         "loop",
         s.loop,
-        ("split", "fit"),
+        ("split", "fit", "friction"),
         lambda c: {"loop": c.loop.model_dump(mode="json") if c.loop else None},
     ),
     Stage("export", s.export, ("split", "fit", "friction"), _section("denoise", "fit")),
@@ -99,13 +99,18 @@ def sign_findings(artifacts: dict) -> tuple:
 
 
 def findings(artifacts: dict) -> list[str]:
-    """What the run must say on the console: implausible data, physical signs that fail, a
-    friction law that the free falls reject."""
-    out = [finding.message() for finding in data_findings(artifacts)]
+    """What the run must say on the console: models that failed, implausible data, physical
+    signs that fail, a friction law that the free falls reject."""
+    out = [failed.message() for failed in getattr(artifacts["fit"], "failed", ())]
+    out += [finding.message() for finding in data_findings(artifacts)]
     out += [finding.message() for finding in sign_findings(artifacts)]
+    if artifacts.get("friction") is not None:  # a friction level of the wrong sign
+        out.extend(artifacts["friction"].impossible())
     law = artifacts["friction"].law if artifacts.get("friction") is not None else None
     if law is not None and law.rejected:
         out.append(law.message())
+    if artifacts.get("loop") is not None:  # a base that fell back, an addition that did worse
+        out.extend(artifacts["loop"].notes)
     return out
 
 

@@ -103,6 +103,15 @@ def test_coulomb_from_demo_like_falls_contains_the_truth(demo_falls):
     assert est.q_dof == 2 and est.q_p > 0.01
 
 
+def test_a_wrong_free_fall_mass_gives_a_finding_not_a_friction_level(demo_falls):
+    logs = [s.log for s in demo_falls]
+    right = identify_friction(logs, RIG, Coulomb(), differentiator=DIFF)
+    assert right.impossible() == ()
+    wrong = identify_friction(logs, FallRig(10 * MASS, WEIGHT), Coulomb(), differentiator=DIFF)
+    (finding,) = wrong.impossible()  # 7.5 kg instead of 0.75: Fc < 0, whatever its interval
+    assert finding.startswith("free-fall friction Fc = -") and "mass (7.5 kg)" in finding
+
+
 def test_coulomb_interval_coverage_over_seeds():
     """Measured here: 55/60 = 91.7 % (seeds 100-119 alone: 17/20); 95 % over 2700 other logs."""
     logs = [_free_fall(100 + s, duration=0.3, x0=0.15).log for s in range(60)]

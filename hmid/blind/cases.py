@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import zlib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -11,6 +12,8 @@ from hmid.blind.config import BlindSuite
 from hmid.loop.result import Verdict
 
 CLEAN = "clean"
+#: what a declared case expects: the loop's finding that the declared friction level is wrong
+FINDING = "finding: friction level"
 
 
 @dataclass(frozen=True)
@@ -24,6 +27,8 @@ class Case:
     # the candidates that count as right when named first; None: none should be claimed
     expect: tuple[str, ...] | None
     compare: dict[str, str] = field(default_factory=dict)  # loop parameter -> simulator one
+    # a known term declared wrong: {dotted key of the experiment: value}; the data are clean
+    declare: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -54,7 +59,34 @@ def plan_cases(suite: BlindSuite) -> list[Case]:
                         dict(effect.compare),
                     )
                 )
+    for declared in suite.declared:
+        for strength, values in declared.strengths.items():
+            for i in range(suite.seeds):
+                cases.append(
+                    Case(
+                        f"{declared.name}-{strength}-{i}",
+                        declared.name,
+                        strength,
+                        i,
+                        _seed(suite.seed, declared.name, strength, i),
+                        {},
+                        (FINDING,),
+                        declare=dict(values),
+                    )
+                )
     return cases
+
+
+def declare(template: dict[str, Any], case: Case) -> dict[str, Any]:
+    """The experiment template with ``case``'s declared values (dotted keys) in place."""
+    out = copy.deepcopy(template)
+    for key, value in case.declare.items():
+        *path, last = key.split(".")
+        node = out
+        for part in path:
+            node = node[part]
+        node[last] = value
+    return out
 
 
 def dataset_for(template: dict[str, Any], case: Case) -> dict[str, Any]:
@@ -63,7 +95,7 @@ def dataset_for(template: dict[str, Any], case: Case) -> dict[str, Any]:
     config = {**template, "seed": case.seed, "logs": []}
     for log in template["logs"]:
         effects = list(log.get("effects", ()))
-        if case.effect != CLEAN:
+        if case.effect != CLEAN and not case.declare:
             effects.append({"kind": case.effect, **case.params})
         config["logs"].append({**log, "effects": effects})
     return config
@@ -108,6 +140,10 @@ def outcome(case: Case, result) -> dict[str, Any]:
         "verdict": result.verdict.value,
         "rmse before [N]": result.before.rmse,
         "rmse after [N]": result.after.rmse,
+        # an addition after which the held-out error rose (reported, never decided on)
+        "added, then worse": any(n.startswith("added ") for n in result.notes),
+        # every printed interval contains its estimate: those that do not, by table
+        "intervals without their estimate": "; ".join(_outside(result)),
     }
     if case.compare and added and added[0] in expect:
         table = result.effects[0].parameters.set_index("parameter")
@@ -122,10 +158,24 @@ def outcome(case: Case, result) -> dict[str, Any]:
                 "estimate": float(estimate["value"]),
                 "covered": bool(estimate["lower"] <= truth <= estimate["upper"]),
             }
-    if case.effect == CLEAN:
+    if case.declare:  # named as a finding, never credited to an effect
+        found = any(n.startswith("the dynamic friction level") for n in result.notes)
+        row["first named"] = FINDING if found else row["first named"]
+        row["correct"] = found and not added
+    elif case.effect == CLEAN:
         row["correct"] = not added
     elif case.expect is None:
         row["correct"] = not added and result.verdict is Verdict.PATTERN_REMAINS
     else:
         row["correct"] = bool(expect & set(named))
     return row
+
+
+def _outside(result) -> list[str]:
+    """Every parameter of the loop's tables whose interval excludes its estimate."""
+    from hmid.loop.result import outside
+
+    tables = [(result.base_name, result.base_parameters)]
+    for e in result.effects:
+        tables += [(e.name, e.parameters), *((a.name, a.parameters) for a in e.alternatives)]
+    return [f"{name}: {p}" for name, table in tables for p in outside(table)]

@@ -4,7 +4,9 @@ The suite names a data-set template (``hmid simulate`` format, no extra effects)
 template (its ``logs`` are filled in per case) and the simulator effects to switch on, each at
 named strengths and with the candidate effect that should explain it (a name, or the names that
 each count as right, such as a delay or a lag of the same sensor; ``expect: null`` for an effect
-the library deliberately lacks). Clean cases (no effect) are the negative controls.
+the library deliberately lacks). Clean cases (no effect) are the negative controls. Declared
+cases simulate clean data and declare a known term wrong (a free-fall mass): the loop must name
+the inconsistency as a finding, not credit it to an effect.
 """
 
 from __future__ import annotations
@@ -51,6 +53,16 @@ class EffectCases(_Frozen):
         return self
 
 
+class DeclaredCases(_Frozen):
+    """A declared term taken as known, declared wrong: the data are clean (simulated with the
+    template's rig), the experiment ``declare``s other values (dotted keys into the experiment
+    template: ``rig.free_fall.mass``), at named strengths. The loop must name the inconsistency
+    (a finding, never an effect)."""
+
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_]+$")]
+    strengths: Annotated[dict[str, dict[str, float]], Field(min_length=1)]
+
+
 class Targets(_Frozen):
     """Pass marks at ``strength``: the right effect first (alone, or in an "indistinguishable"
     set); an effect added on clean data; a confidently wrong single name (over all cases with an
@@ -71,6 +83,7 @@ class BlindSuite(_Frozen):
     seeds: Annotated[int, Field(ge=1)]  # per effect and strength
     clean_seeds: Annotated[int, Field(ge=0)]
     effects: Annotated[tuple[EffectCases, ...], Field(min_length=1)]
+    declared: tuple[DeclaredCases, ...] = ()  # a known term declared wrong
     targets: Targets = Targets()
     executor: ExecutorSection = ExecutorSection(workers=1)
     base_dir: Path = Path(".")

@@ -33,6 +33,7 @@ def suite_table(outcomes: pd.DataFrame) -> pd.DataFrame:
                 ),
                 "confidently wrong": group["confidently wrong"].mean(),
                 "any effect added": added.mean(),
+                "added, then held-out worse": _share(group, "added, then worse"),
                 f"'{REMAINS}'": (group["verdict"] == REMAINS).mean(),
                 "correct": group["correct"].mean(),
                 "RMSE before [N]": group["rmse before [N]"].median(),
@@ -45,6 +46,13 @@ def suite_table(outcomes: pd.DataFrame) -> pd.DataFrame:
             }
         )
     return pd.DataFrame(rows)
+
+
+def _share(group: pd.DataFrame, column: str) -> float:
+    """The share of runs where ``column`` holds (a failed case has no such column)."""
+    if column not in group:
+        return 0.0
+    return float(group[column].astype("boolean").fillna(False).astype(bool).mean())
 
 
 def _recovery(group: pd.DataFrame) -> dict:
@@ -77,6 +85,12 @@ def check_targets(outcomes: pd.DataFrame, suite: BlindSuite) -> pd.DataFrame:
             names = " or ".join(effect.expect)
             label = f"{effect.kind} ({t.strength}): {names} named first (alone or among rivals)"
             rows.append((label, rate, ">=", t.right_first))
+    for declared in suite.declared:
+        group = outcomes[(outcomes["effect"] == declared.name)
+                         & (outcomes["strength"] == t.strength)]  # fmt: skip
+        if not group.empty:
+            label = f"{declared.name} ({t.strength}): the wrong declared term named, no effect"
+            rows.append((label, group["correct"].mean(), ">=", t.right_first))
     clean = outcomes[outcomes["effect"] == CLEAN]
     if not clean.empty:
         rate = (clean["added"].fillna("") != "").mean()

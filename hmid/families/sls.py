@@ -55,6 +55,9 @@ class SLSSpec(FamilySpec):
     posterior: Literal["auto", "exact", "mcmc"] = "auto"
     draws: Annotated[int, Field(ge=100, le=100_000)] = 4000  # independent draws (exact)
     walkers: Annotated[int, Field(ge=4, le=512)] = 32
+    # Levenberg-Marquardt's budget for the starting point (hmid.models.sls.start.initial_fit):
+    # a start that does not converge in it fails this family alone, with its reason
+    start_max_steps: Annotated[int, Field(ge=1)] = 256
     max_steps: Annotated[int, Field(ge=100)] = 20000
     # a safety net only: a run stopped by wall time depends on machine speed (the report says so)
     max_seconds: Annotated[float, Field(gt=0)] = 3600.0
@@ -195,14 +198,14 @@ class SLSSpec(FamilySpec):
         data = sls_data(self._segments(train, "train"))
         use = np.asarray(data.use)
         model = SLSModel(self.spring, self.arms, "iid")
-        start = initial_fit(data, model)
+        start = initial_fit(data, model, max_steps=self.start_max_steps)
         residual = model.residuals(start.theta, data)[use]
         rho, p_value = lag1_autocorrelation(residual)
         correlated = residuals_correlated(residual, alpha=0.01, min_abs_rho=0.1)
         noise = "ar1" if self.noise == "ar1" or (self.noise == "auto" and correlated) else "iid"
         if noise == "ar1":
             model = SLSModel(self.spring, self.arms, "ar1")
-            start = initial_fit(data, model)
+            start = initial_fit(data, model, max_steps=self.start_max_steps)
         grid = adjustment = None
         if self.method == "exact":
             result, grid = self._exact(model, data, start, context.seed)

@@ -114,6 +114,22 @@ class FrictionEstimate:
         """Pooled friction force (N, signed along +x, opposing motion) at velocity ``v``."""
         return self.model.friction(np.asarray(v, dtype=float), self.params)
 
+    def impossible(self) -> tuple[str, ...]:
+        """A finding, not a number, for each parameter whose whole interval says friction
+        pushes the motion (Fc = -40.6 N from a free-fall mass of 7.5 kg instead of 0.75):
+        every friction coefficient opposes the motion."""
+        out = []
+        for name, value in self.params.items():
+            low, high = self.ci[name]
+            if high < 0:
+                out.append(
+                    f"free-fall friction {name} = {value:.4g} {self.units[name]} [{low:.4g}, "
+                    f"{high:.4g}] is negative: friction cannot drive the motion; the declared "
+                    f"free-fall mass ({self.rig.mass:g} kg) or drive ({self.rig.drive:g} N) is "
+                    "wrong, or the position's sign"
+                )
+        return tuple(out)
+
     def to_dict(self) -> dict:
         """Plain, JSON-serialisable record (non-finite numbers as None)."""
         return _clean(

@@ -40,6 +40,10 @@ class Decision:
     added: bool = False
     vs_added: float = float("nan")  # its out-of-fold RMSE relative to the added one's, less 1
     indistinguishable: bool = False
+    # where the split holds out whole logs: the change with every training log left out whole
+    # (selection needs both this and cv_change confidently better)
+    cv_across: float = float("nan")
+    cv_across_upper: float = float("nan")
 
 
 #: The report's column label of each field, in the table's order.
@@ -62,11 +66,18 @@ LABELS: dict[str, str] = {
     "added": "added",
     "vs_added": "vs added (CV)",
     "indistinguishable": "indistinguishable",
+    "cv_across": "CV change, logs left out",
+    "cv_across_upper": "its upper bound",
 }
+#: columns only a loop that cross-validated across logs has
+ACROSS = ("cv_across", "cv_across_upper")
 
 
 def decision_table(decisions: tuple[Decision, ...] | list[Decision]) -> pd.DataFrame:
-    """Every candidate tested, per round: one row per decision, one labelled column per field."""
+    """Every candidate tested, per round: one row per decision, one labelled column per field
+    (those of the cross-validation across logs only where it was done)."""
+    across = any(d.cv_across == d.cv_across for d in decisions)  # any not NaN
+    labels = {k: v for k, v in LABELS.items() if across or k not in ACROSS}
     return pd.DataFrame(
-        [{label: getattr(d, name) for name, label in LABELS.items()} for d in decisions]
+        [{label: getattr(d, name) for name, label in labels.items()} for d in decisions]
     )

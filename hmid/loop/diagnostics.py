@@ -11,7 +11,8 @@ nonlinear dependence on the signals (which linear tests miss).
   bins (split by the direction of motion) is estimated on three of four interleaved folds of
   0.5 s blocks and predicts the fourth:
   the cross-fitted share of residual variance it explains is a correlation ratio eta² that sees
-  any smooth or stepwise dependence, multiplicative ones included, and is ~0 for noise;
+  any smooth or stepwise dependence, multiplicative ones included, and is ~0 for noise (at
+  least 0: a cross-fitted share below zero is noise);
 * the residual's power spectrum (Welch).
 """
 
@@ -29,6 +30,9 @@ N_BINS = 24
 N_BINS_TIME = 6  # coarser than a fold block, so every time bin is seen by the other folds
 FOLDS = 4
 FOLD_BLOCK_S = 0.5  # folds interleave blocks of this length
+HUGE = 1e100  # a residual this large is scaled before it is squared
+SPECTRUM_ROWS = 1024  # consecutive finite rows a Welch segment of the spectrum needs
+MIN_ROWS = 50  # finite training rows of a residual below which it is not diagnosed
 
 
 def inputs(data: Signals) -> dict[str, np.ndarray]:
@@ -84,8 +88,13 @@ class Diagnostics:
 
     @property
     def strongest(self) -> tuple[str, float]:
-        row = self.pattern["eta2"].idxmax()
-        return str(row), float(self.pattern.loc[row, "eta2"])
+        """The signal that explains most of the residual, and its η² (``("none", 0.0)`` where
+        no signal could be scanned: a residual with too few finite rows)."""
+        eta2 = self.pattern["eta2"].dropna()
+        if eta2.empty:
+            return "none", 0.0
+        row = eta2.idxmax()
+        return str(row), float(eta2[row])
 
 
 def _ccf(residual, rows, data, inputs, lags) -> pd.DataFrame:
@@ -127,6 +136,9 @@ def pattern_scan(residual: np.ndarray, rows: np.ndarray, data: Signals) -> pd.Da
             means = np.divide(sums, counts, out=np.zeros_like(sums), where=counts > 0)
             predicted[test] = means[cell[test]]
         eta2 = 1.0 - float(((r - predicted) ** 2).sum()) / total if total > 0 else 0.0
+        # cross-fitted, a signal that explains nothing predicts worse than the mean: below
+        # zero is noise, and a share of variance is never negative
+        eta2 = max(eta2, 0.0)
         out[name] = {"eta2": eta2}
     return pd.DataFrame.from_dict(out, orient="index")
 
@@ -151,7 +163,7 @@ def binned_mean(
     return table
 
 
-def _spectrum(series: np.ndarray, dt: float, nperseg: int = 1024):
+def _spectrum(series: np.ndarray, dt: float, nperseg: int = SPECTRUM_ROWS):
     """Welch PSD averaged over the finite runs of ``series`` that hold a whole segment length."""
     from scipy.signal import welch
 
@@ -171,8 +183,18 @@ def diagnose(
     """All diagnostics of ``residual`` (every row of ``data``) on its training rows."""
     from statsmodels.stats.diagnostic import acorr_ljungbox
 
-    rows = data.train
+    # a model's prediction may be non-finite or astronomically large (a diverged fit): the
+    # diagnostics read the finite rows, and the scale-free ones a residual scaled to order one
+    rows = data.train & np.isfinite(residual)
     dt = float(np.median(np.diff(data["t"][:1000])))
+    finite = residual[rows]
+    scale = float(np.max(np.abs(finite))) if len(finite) else 0.0
+    if rows.sum() < MIN_ROWS or not np.isfinite(scale) or scale == 0.0:
+        return _undiagnosed(residual, rows, data, dt, lag_count(data, max_lag_s))
+    if scale < HUGE:  # as it is: the same numbers as ever
+        scale = 1.0
+    else:
+        residual = np.where(rows, residual / scale, 0.0)
     nlags = lag_count(data, max_lag_s)
     acf = autocorrelation(residual, rows, data, nlags)
     stride = lag_count(data, stride_s, 1)
@@ -192,6 +214,28 @@ def diagnose(
         ljung_box_n=len(decimated),
         ccf=ccf,
         pattern=pattern_scan(residual, rows, data),
-        spectrum=(freq, psd),
-        rms=float(np.sqrt(np.mean(residual[rows] ** 2))),
+        spectrum=(freq, psd * np.float64(scale) ** 2),
+        rms=scale * float(np.sqrt(np.mean(residual[rows] ** 2))),
+    )
+
+
+def _undiagnosed(residual, rows, data: Signals, dt: float, nlags: int) -> Diagnostics:
+    """What a residual with too few finite rows (or none but zeros) gets: no test, no
+    pattern (NaN), its RMS where it has one."""
+    finite = residual[rows]
+    lags = np.unique(np.linspace(-nlags, nlags, 41).round().astype(int))
+    names = list(signals(data))
+    with np.errstate(over="ignore"):
+        rms = float(np.sqrt(np.mean(finite**2))) if len(finite) else float("nan")
+    return Diagnostics(
+        lags_s=np.arange(nlags + 1) * dt,
+        acf=np.full(nlags + 1, np.nan),
+        acf_bound=float("nan"),
+        tau_int=float("nan"),
+        ljung_box_p=float("nan"),
+        ljung_box_n=0,
+        ccf=pd.DataFrame(np.nan, index=lags * dt, columns=list(inputs(data))),
+        pattern=pd.DataFrame({"eta2": np.full(len(names), np.nan)}, index=names),
+        spectrum=(np.array([0.0]), np.array([0.0])),
+        rms=rms,
     )

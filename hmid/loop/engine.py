@@ -71,18 +71,28 @@ def with_elastic(signals: Signals, current: StructureFit, position: str | None) 
 
 
 def run_loop(
-    signals: Signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed: int = 0
+    signals: Signals,
+    base: LoopBase,
+    spec: LoopSpec,
+    setting: Setting,
+    seed: int = 0,
+    *,
+    across_logs: bool = False,
 ) -> LoopResult:
-    """Diagnose, test, select and add effects; then say what remains."""
+    """Diagnose, test, select and add effects; then say what remains. ``across_logs``: the
+    held-out rows are whole logs, and selection also leaves every training log out whole
+    (the stricter of the two cross-validations decides)."""
     from threadpoolctl import threadpool_limits
 
     # thousands of small least-squares problems: BLAS threads only contend for the cores
     with threadpool_limits(limits=1, user_api="blas"):
-        return _run_loop(signals, base, spec, setting, seed)
+        return _run_loop(signals, base, spec, setting, seed, across_logs)
 
 
-def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -> LoopResult:
+def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
+              across_logs=False) -> LoopResult:  # fmt: skip
     clock = _Clock()
+    setting = replace(setting, dt=signals.dt)  # timing grids follow the sample rate
     candidates = make_candidates(spec.candidate_names(setting), setting)
     held = signals.validation  # the comparison's held-out rows: reported on, never decided on
     margins = [base.structure.margins, *(c.margins for c in candidates)]
@@ -94,6 +104,8 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
     # every 4th relaxation time, then a walk (as in each screen): the base's profile is smooth
     current = start = profile(structure, signals, step=PROFILE_STEP)
     folds = Folds.of(signals, spec.folds, spec.block_s)
+    # the same blocks dealt by log: what a split that holds out whole logs asks of an addition
+    by_log = Folds.by_log(signals, spec.block_s) if across_logs else None
     counts = bootstrap(spec.draws, folds.blocks, seed)
     signals = with_elastic(signals, current, setting.position)
     has_elastic = bool(np.any(signals[ELASTIC])) if ELASTIC in signals else False
@@ -110,7 +122,7 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
         screened = [s for s in screened if not s.adds_nothing]
         if not screened:
             break
-        chosen = _select(round_no, current, screened, signals, folds, counts, spec)
+        chosen = _select(round_no, current, screened, signals, (folds, by_log), counts, spec)
         decisions.extend(chosen.decisions)
         if chosen.best is None:
             break
@@ -127,7 +139,11 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
         if strongest < spec.structure_threshold:
             break
     clock.lap(part)
-    result = finish(spec, signals, base, start, current, effects, decisions, held, steps)
+    result = finish(spec, signals, base, start, current, effects, decisions, held, steps,
+                    held_out="logs" if across_logs else "rows",
+                    known_level=setting.known_level if refit is not None else None,
+                    known_se=setting.known_se,
+                    fitted_level=setting.fitted_level if refit is not None else None)  # fmt: skip
     clock.lap("diagnostics and verdict")
     return replace(result, costs=clock.laps)
 
@@ -142,10 +158,12 @@ class _Round:
     alternatives: tuple[Alternative, ...] = ()
 
 
-def _select(round_no, current: StructureFit, screened: list[Screen], signals, folds, counts,
+def _select(round_no, current: StructureFit, screened: list[Screen], signals, both, counts,
             spec: LoopSpec) -> _Round:  # fmt: skip
-    """Test every screened candidate on the training rows, cross-validate those that pass, and
-    pick the one to add: of those selected, the lowest ΔBIC on a common sample size."""
+    """Test every screened candidate on the training rows, cross-validate those that pass
+    (``both``: the time-block folds, and the folds by log or None), and pick the one to add:
+    of those selected, the lowest ΔBIC on a common sample size."""
+    folds, by_log = both
     p_holm = holm([s.test.p_value for s in screened])
     # rank on one sample size for all: each candidate's own n_eff (its residual's) decides
     # significance, but would favour whichever whitens its residual most, not fits best
@@ -155,6 +173,7 @@ def _select(round_no, current: StructureFit, screened: list[Screen], signals, fo
         for s, p in zip(screened, p_holm, strict=True)
     ]
     before = out_of_fold(current.structure, signals, folds)
+    before_logs = None if by_log is None else out_of_fold(current.structure, signals, by_log)
     oof = {}
     for i, d in enumerate(decisions):
         if d.passes_training:
@@ -162,6 +181,13 @@ def _select(round_no, current: StructureFit, screened: list[Screen], signals, fo
             cv = change(before, oof[i], folds, counts, spec.confidence)
             decisions[i] = replace(d, cv_change=cv.change, cv_upper=cv.upper,
                                    selected=cv.better(spec.margin))  # fmt: skip
+            if by_log is not None:  # the stricter wins: better within logs and across them
+                across = out_of_fold(screened[i].joint.structure, signals, by_log)
+                cv = change(before_logs, across, by_log, counts, spec.confidence)
+                decisions[i] = replace(
+                    decisions[i], cv_across=cv.change, cv_across_upper=cv.upper,
+                    selected=decisions[i].selected and cv.better(spec.margin),
+                )  # fmt: skip
     selected = [i for i in oof if decisions[i].selected]
     if not selected:
         return _Round(tuple(decisions), None)

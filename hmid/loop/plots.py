@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from hmid.loop.diagnostics import binned_mean, signals, unit
+from hmid.loop.diagnostics import MIN_ROWS, SPECTRUM_ROWS, binned_mean, signals, unit
 from hmid.loop.result import LoopResult
 
 
@@ -12,6 +12,10 @@ def _figure(**kwargs):
     from matplotlib.figure import Figure  # object-oriented: never touches pyplot's backend
 
     return Figure(**kwargs)
+
+
+def _empty(ax, text: str) -> None:
+    ax.text(0.5, 0.5, text, ha="center", va="center", fontsize=7, transform=ax.transAxes)
 
 
 def plot_whiteness(result: LoopResult, path: Path) -> None:
@@ -38,7 +42,12 @@ def plot_whiteness(result: LoopResult, path: Path) -> None:
         ax.legend(fontsize=7)
         ax = axes[row, 2]
         freq, psd = d.spectrum
-        ax.semilogy(freq[1:], psd[1:], lw=1)
+        if len(freq) > 1:
+            ax.semilogy(freq[1:], psd[1:], lw=1)
+        else:  # an empty panel says why in its place
+            _empty(ax, f"no spectrum: it needs {SPECTRUM_ROWS:,} consecutive usable training "
+                   "rows,\nand no run of them is as long here (motion stops and reversals\n"
+                   "cut the logs)")  # fmt: skip
         ax.set(xlabel="frequency [Hz]", ylabel=f"PSD [({result.unit})²/Hz]",
                title=f"residual spectrum, {label}")  # fmt: skip
     fig.savefig(path, dpi=110)
@@ -58,6 +67,9 @@ def plot_pattern(result: LoopResult, path: Path) -> None:
         (axes[1], "after", result.diagnostics_after, result.residual_after),
     ):
         name, eta2 = d.strongest
+        if name not in values:  # too few finite rows: said in the panel's place
+            _empty(ax, f"{label}: no pattern scan (fewer than {MIN_ROWS} finite residual rows)")
+            continue
         table = binned_mean(residual, rows, values[name], data)
         for direction, part in table.groupby("direction"):
             ax.plot(part["centre"], part["mean"], "o-", ms=3, lw=1, label=direction)

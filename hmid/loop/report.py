@@ -66,6 +66,8 @@ def metrics(result: LoopResult) -> dict:
         "after": result.after_name,
         "verdict": result.verdict.value,
         "message": result.message,
+        "notes": list(result.notes),
+        "final_model": list(result.final_lines()),
         "error_kind": "one-step",
         "held_out_before": result.before.to_dict(),
         "held_out_after": result.after.to_dict(),
@@ -124,14 +126,22 @@ def loop_section(
     write_csv(table, f"{prefix}_before_after.csv")
     write_csv(diag, f"{prefix}_diagnostics.csv")
     write_csv(tests, f"{prefix}_tests.csv")
+    write_csv(result.final_parameters, f"{prefix}_final_model.csv")
     effect_sections = tuple(_effect_section(e, prefix, write_csv) for e in result.effects)
     hint_tables, hint_text = _hint(result, prefix, write_csv)
     section = Section(
         title,
-        text=f"**Verdict: {result.verdict.value}.** {result.message}{hint_text}\n\n"
+        text="".join(f"**⚠ {note}**\n\n" for note in result.notes)
+        + f"**Verdict: {result.verdict.value}.** {result.message}{hint_text}\n\n"
+        + _final_text(result)
         + _method_text(result),
         tables=(
             Table(table, "Held-out error before and after (one-step)"),
+            Table(
+                result.final_parameters,
+                f"The final model, {result.after_name}: every parameter after the loop (part: "
+                "the base's or an added effect's), from its last joint fit, with intervals",
+            ),
             Table(
                 result.base_parameters,
                 f"{result.base_name}: its terms refitted by least squares, with intervals",
@@ -177,6 +187,14 @@ def _effect_section(e: Effect, prefix: str, write_csv) -> Section:
     )
 
 
+def _final_text(result: LoopResult) -> str:
+    """The final model, one line per part (the base, each added effect)."""
+    lines = result.final_lines()
+    if not lines:
+        return ""
+    return f"**Final model: {result.after_name}.**\n\n" + "".join(f"- {x}\n" for x in lines) + "\n"
+
+
 def _hint(result: LoopResult, prefix: str, write_csv) -> tuple[tuple[Table, ...], str]:
     """The data-driven hint's table (where it explains held-out variance) and its periodicity
     sentence (where it found one)."""
@@ -214,6 +232,8 @@ def _method_text(result: LoopResult) -> str:
         "intervals are the OLS sandwich with the residual's autocovariance (calibrated for "
         f"residual correlation times up to {CALIBRATED_TAU:g} samples by "
         "benchmarks/bench_calibration_balance.py); a profiled parameter's is its profile "
-        "likelihood's on n / τ_int, at the grid's resolution."
+        "likelihood's on n / τ_int, its ends interpolated where the likelihood ratio crosses its "
+        "quantile, around the estimate refined between grid values (it always holds the "
+        "estimate); an undefined standard error is left empty, never zero."
         + (f"\n\n{result.cost_text()}" if result.costs else "")
     )

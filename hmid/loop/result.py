@@ -82,6 +82,27 @@ class LoopResult:
     # wall seconds of each part (name, seconds, candidates screened in it): the only numbers
     # that differ between runs of the same config and data
     costs: tuple[tuple[str, float, int], ...] = ()
+    # what the console and the report must say in one line each: a base that fell back to
+    # another model, an addition after which the held-out error rose
+    notes: tuple[str, ...] = ()
+    # every parameter after the loop (the base's and each added effect's, part says whose),
+    # from the last joint fit
+    final_parameters: pd.DataFrame = field(default_factory=pd.DataFrame)
+
+    def final_lines(self) -> tuple[str, ...]:
+        """One line per part of the final model (the base, each added effect): its parameters
+        with units and intervals."""
+        table = self.final_parameters
+        if table.empty:
+            return ()
+        lines = []
+        for part, rows in table.groupby("part", sort=False):
+            values = "; ".join(
+                f"{r.parameter} = {r.value:.4g} {r.unit} [{_bound(r.lower)}, {_bound(r.upper)}]"
+                for r in rows.itertuples()
+            )
+            lines.append(f"{part}: {values}")
+        return tuple(lines)
 
     def cost_text(self) -> str:
         """The loop's wall time by part, per screened candidate where it screened."""
@@ -109,6 +130,40 @@ class LoopResult:
         return self.effects[0].named if self.effects else ()
 
 
+def _bound(value: float) -> str:
+    """An interval's end as printed: "undefined" where its standard error is."""
+    return f"{value:.4g}" if np.isfinite(value) else "undefined"
+
+
+def final_parameters(current: StructureFit, base_terms: int, base_name: str, effects,
+                     signals: Signals, confidence: float) -> pd.DataFrame:  # fmt: skip
+    """Every parameter of the model after the loop, from its last joint fit: the base's
+    (refitted) and each added effect's, with value, unit and interval; ``part`` says whose
+    (the first ``base_terms`` terms are the base's, then one per effect in turn)."""
+    table = parameters(current, signals, confidence).drop(columns=["positive"])
+    seen = current.structure.seen(signals)
+    owner = {}
+    for i, placed in enumerate(current.structure.terms):
+        part = base_name if i < base_terms else effects[i - base_terms].name
+        for name in placed.term.columns(seen, placed.value).names:
+            owner.setdefault(name, part)  # a column an effect shares is the base's
+        if placed.term.hyper is not None:
+            owner.setdefault(placed.term.hyper.name, part)
+    table.insert(0, "part", [owner.get(p, base_name) for p in table["parameter"]])
+    return table
+
+
+def outside(table: pd.DataFrame) -> list[str]:
+    """The parameters of a table (columns parameter, value, lower, upper) whose printed
+    interval does not contain its estimate (an undefined interval, NaN, contains nothing and
+    claims nothing)."""
+    if table.empty:
+        return []
+    value, low, high = (table[c].to_numpy(dtype=float) for c in ("value", "lower", "upper"))
+    bad = (low > value) | (value > high)  # NaN compares False: undefined, not wrong
+    return [str(p) for p in table["parameter"][bad]]
+
+
 def own_parameters(
     candidate, fitted: StructureFit, interval, signals: Signals, confidence, model=()
 ):
@@ -124,6 +179,9 @@ def own_parameters(
         hyper = candidate.hyper
         low, high = interval if interval is not None else (np.nan, np.nan)
         value = fitted.structure.terms[-1].value
+        # the interval is the screen's profile's; a joint refit may move the value a little
+        # within its flat bottom, and the printed interval always holds the estimate
+        low, high = min(low, value), max(high, value)
         profiled = {"parameter": hyper.name, "value": value, "std. error": np.nan,
                     "lower": low, "upper": high, "unit": hyper.unit}  # fmt: skip
         own = pd.concat([own, pd.DataFrame([profiled])], ignore_index=True)
@@ -145,6 +203,12 @@ def make_effect(screened, trial: StructureFit, current: StructureFit, signals: S
         f"{int(folds.fold.max()) + 1}-fold blocked cross-validation over {folds.blocks} time "
         f"blocks: out-of-fold RMSE {100 * d.cv_change:+.2f} % (block bootstrap, "
         f"{confidence:.0%} upper bound {100 * d.cv_upper:+.2f} %)"
+        + (
+            f"; with every training log left out whole in turn: {100 * d.cv_across:+.2f} % "
+            f"(upper bound {100 * d.cv_across_upper:+.2f} %)"
+            if d.cv_across == d.cv_across  # not NaN: the split holds out whole logs
+            else ""
+        )
     )
     return Effect(candidate.name, candidate.title, candidate.physics, table, text,
                   tuple(alternatives))  # fmt: skip
@@ -154,14 +218,28 @@ def _residual_before(signals: Signals, prediction: np.ndarray) -> np.ndarray:
     return signals.target - prediction
 
 
-def finish(spec, signals, base, start, current, effects, decisions, held, steps=()) -> LoopResult:
+def finish(spec, signals, base, start, current, effects, decisions, held, steps=(),
+           held_out: str = "rows", known_level: str | None = None,
+           fitted_level: str | None = None, known_se: float = 0.0) -> LoopResult:  # fmt: skip
     """Diagnostics before (the base model's own residual) and after, and the verdict; the
     held-out error before and after on ``held``, the comparison's held-out rows (a lead's reach
-    at segment ends is left out of the tests, not of the reported error)."""
+    at segment ends is left out of the tests, not of the reported error; ``held_out`` says what
+    they are: "rows" or whole "logs"; ``known_level``: whence the declared Coulomb level the
+    base took as known, which its refit tests, and ``known_se`` its standard error;
+    ``fitted_level``: the declared level's name where the base fitted it, which its refit, the
+    same column, is called in the tables)."""
     residual_before = _residual_before(signals, base.prediction)
+    before_scores = score(signals.target[held], base.prediction[held], "one-step")
+    table = parameters(start, signals, spec.confidence)
+    finding = None
+    if known_level is not None:
+        finding = level_finding(table, known_level, signals.unit("target"),
+                                (before_scores, start.scores(held)), known_se,
+                                spec.confidence)  # fmt: skip
     before = diagnose(residual_before, signals, max_lag_s=spec.max_lag_s, stride_s=spec.stride_s)
     after, current_residual = before, residual_before  # nothing added: after is before
-    if effects:
+    corrected = bool(effects) or finding is not None  # a known level found wrong: corrected
+    if corrected:
         current_residual = current.residual
         after = diagnose(
             current_residual, signals, max_lag_s=spec.max_lag_s, stride_s=spec.stride_s
@@ -172,14 +250,22 @@ def finish(spec, signals, base, start, current, effects, decisions, held, steps=
         hint = sparse_hint(current_residual, signals, after.strongest[0])
         if hint.heldout_r2 <= 0 and not hint.periodic:
             hint = None  # a hint that explains no held-out variance is no hint
-    before_scores = score(signals.target[held], base.prediction[held], "one-step")
-    after_scores = before_scores if not effects else current.scores(held)
-    table = parameters(start, signals, spec.confidence)
+    after_scores = current.scores(held) if corrected else before_scores
+    final = final_parameters(current, len(start.structure.terms), base.name, effects, signals,
+                             spec.confidence)  # fmt: skip
+    if fitted_level is not None:  # the refit replaced the fitted level: its name, not a change
+        rename = {"dFc": fitted_level}
+        table["parameter"] = table["parameter"].replace(rename)
+        ours = final["part"] == base.name
+        final.loc[ours, "parameter"] = final.loc[ours, "parameter"].replace(rename)
     return LoopResult(
         base_name=base.name,
-        after_name=base.name + "".join(f" + {e.name}" for e in effects),
+        after_name=base.name
+        + (" + dFc (its known friction level refitted)" if finding and not effects else "")
+        + "".join(f" + {e.name}" for e in effects),
         unit=signals.unit("target"),
         base_parameters=table.drop(columns=["positive"]),
+        final_parameters=final,
         decisions=tuple(decisions),
         effects=tuple(effects),
         before=before_scores,
@@ -193,7 +279,58 @@ def finish(spec, signals, base, start, current, effects, decisions, held, steps=
         residual_before=residual_before,
         residual_after=current_residual,
         steps=tuple(steps),
+        notes=(
+            *((finding,) if finding else ()),
+            *rises(before_scores, steps, signals.unit("target"), held_out),
+        ),
     )
+
+
+def level_finding(table: pd.DataFrame, known: str, unit: str, scores, known_se: float = 0.0,
+                  confidence: float = 0.95) -> str | None:  # fmt: skip
+    """The declared Coulomb level is a hypothesis: where the base's refit of it (dFc) differs
+    from zero beyond the uncertainty of both (its interval's half-width and the known level's
+    ``known_se``, combined in quadrature), a finding of its own, with what could cause it (an
+    honest set: these data cannot tell the causes apart) and what the refit alone did to the
+    held-out error (never credited to a candidate)."""
+    from scipy import stats
+
+    rows = table[table["parameter"] == "dFc"]
+    if rows.empty:
+        return None
+    row = rows.iloc[0]
+    half = (row["upper"] - row["lower"]) / 2
+    reach = float(np.hypot(half, stats.norm.ppf(0.5 + confidence / 2) * known_se))
+    if not abs(row["value"]) > reach:  # NaN: undefined, no finding
+        return None
+    before, refitted = scores
+    side = "above" if row["value"] > 0 else "below"
+    return (
+        f"the dynamic friction level is {abs(row['value']):.3g} {unit} {side} {known} (dFc = "
+        f"{row['value']:.3g} [{row['lower']:.3g}, {row['upper']:.3g}] {unit}; refitted alone, "
+        f"the held-out error goes {before.rmse:.4g} → {refitted.rmse:.4g} {unit}): a declared "
+        "mass or the free-fall drive is wrong, or friction depends on the load, or on the "
+        "direction of motion; these data cannot separate them (a free fall with another "
+        "hanging mass would)"
+    )
+
+
+#: a held-out RMSE more than this fraction above the one before an addition has risen
+RISE = 1e-3
+
+
+def rises(before: Scores, steps, unit: str, held_out: str = "rows") -> tuple[str, ...]:
+    """One line per addition after which the held-out error rose (reported: the held-out rows
+    decide nothing, but an addition that does worse on them does not generalise)."""
+    out, previous = [], before.rmse
+    for name, scores in steps:
+        if scores.rmse > previous * (1 + RISE):
+            out.append(
+                f"added {name}, but the held-out error rose {previous:.4g} → {scores.rmse:.4g} "
+                f"{unit}: it does not generalise to the held-out {held_out}"
+            )
+        previous = scores.rmse
+    return tuple(out)
 
 
 def _verdict(spec, after: Diagnostics, effects) -> Verdict:
@@ -211,10 +348,16 @@ def _message(spec, after: Diagnostics, effects, verdict: Verdict) -> str:
         f"Ljung-Box on the residual every {spec.stride_s * 1e3:.0f} ms: p = {after.ljung_box_p:.2g}"
     )
     if verdict is Verdict.PATTERN_REMAINS:
+        if effects:  # what the added effects left, not what they explained
+            return (
+                f"Added: {names}. Structure remains that no further candidate explains: what "
+                f"they leave of the residual still depends on {signal} (cross-fitted η² = "
+                f"{eta2:.3f} ≥ {spec.structure_threshold}); {white}."
+            )
         return (
             f"Structure remains that no candidate effect explains: the residual depends on "
             f"{signal} (cross-fitted η² = {eta2:.3f} ≥ {spec.structure_threshold}); {white}. "
-            + (f"Added before that: {names}. " if effects else "No candidate effect is claimed. ")
+            "No candidate effect is claimed. "
         )
     return (
         (f"Added: {names}. " if effects else "No candidate effect passed. ")

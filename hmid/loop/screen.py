@@ -24,7 +24,7 @@ import numpy as np
 
 from hmid.balance import Signals, StructureFit, descend, fit_structure, parameters, profile, refine
 from hmid.loop.candidates import Candidate
-from hmid.stats import NestedTest, profile_interval, residual_tau_int
+from hmid.stats import NestedTest, likelihood_interval, residual_tau_int
 
 #: every 4th point of a model's hyperparameter grid (ratio 1.17^4 = 1.9 on the SLS's tau grid),
 #: then a walk from the best: each candidate re-profiles the model twice, and this is most of
@@ -121,7 +121,9 @@ def screen(current: StructureFit, candidate: Candidate, signals: Signals, confid
     if candidate.hyper is not None:
         _fill(fits, index, signals, n_eff, confidence)
         sse = np.array([fits[j].sse if j in fits else np.inf for j in range(len(grid))])
-        interval = profile_interval(np.asarray(grid, dtype=float), sse, n_eff, confidence)
+        # refined at the crossings, around the estimate refined between grid points
+        estimate = (joint.structure.terms[-1].value, joint.sse)
+        interval = likelihood_interval(grid, sse, n_eff, confidence, estimate, candidate.hyper.log)
     collinear = _rank_deficient(joint)
     ok = not collinear and consistent(candidate, joint, signals, confidence)
     return Screen(candidate, joint, test, interval, ok, n_eff, collinear)

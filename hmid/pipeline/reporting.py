@@ -56,11 +56,13 @@ def _fit_table(artifacts, unit: str) -> pd.DataFrame:
 
 def _verdict(best) -> str:
     r2 = best["r2 (held-out)"]
+    # R² as a number (a rounded "100 %" beside "unexplained structure" reads as a
+    # contradiction); whether structure remains is the loop's to say, once
     if r2 >= R2_ACCEPT:
-        return f"{best['model']} explains {100 * r2:.0f} % of the held-out variation"
+        return f"{best['model']}: held-out R² {r2:.4f} (accepted at {R2_ACCEPT})"
     return (
-        f"no model reaches R² {R2_ACCEPT} on held-out data (best {r2:.2f}): structure remains "
-        "that these families cannot represent (e.g. viscoelastic memory); see the residuals"
+        f"no model reaches R² {R2_ACCEPT} on held-out data (best {r2:.4f}); these families may "
+        "lack a physical effect (e.g. viscoelastic memory): see the residuals"
     )
 
 
@@ -334,6 +336,9 @@ def _metrics(config, artifacts, units, metrics_loop: dict | None) -> dict:
         "flags": list(artifacts["inventory"].flags),
         "data_findings": [f.to_dict() for f in _data_findings(artifacts)],
     }
+    failed = getattr(fitted, "failed", ())  # models left out, each with its reason
+    if failed:
+        metrics["failed"] = [f.__dict__ for f in failed]
     if metrics_loop is not None:  # its wall times go to timings.json: metrics are reproducible
         metrics["loop"] = {k: v for k, v in metrics_loop.items() if k != "wall_s"}
     return metrics
@@ -357,6 +362,8 @@ def _summary(config, artifacts, unit: str, friction_summary: tuple) -> tuple:
     data_summary = (("⚠ data plausibility", "; ".join(f.message() for f in data)),) if data else ()
     loop = artifacts.get("loop")
     verdict = None if loop is None else loop_verdict(config, loop)
+    failed = getattr(artifacts["fit"], "failed", ())
+    failed_summary = (("⚠ failed fits", "; ".join(f.message() for f in failed)),) if failed else ()
     sign_summary = ()
     if findings:
         sign_summary = (
@@ -375,6 +382,7 @@ def _summary(config, artifacts, unit: str, friction_summary: tuple) -> tuple:
         ("verdict", _verdict(best)),
         *data_summary,
         *sign_summary,
+        *failed_summary,
         *friction_summary,
         (
             "rows: train / held-out / excluded",

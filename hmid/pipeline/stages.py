@@ -7,7 +7,7 @@ load -> denoise -> friction -> signals -> split -> fit -> compare -> loop. Each 
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
 
@@ -16,12 +16,13 @@ import pandas as pd
 
 from hmid.balance import Signals
 from hmid.denoise import Piece, check_time_base, denoise_log, pieces
-from hmid.errors import ConfigError, HmidWarning, LogError
+from hmid.errors import ConfigError, FitError, HmidWarning, LogError
 from hmid.experiment import ExperimentConfig, log_units
 from hmid.families import FitContext, FitData, Fitted
 from hmid.files import sha256
 from hmid.io import Log, load_column_map, read_log
 from hmid.metrics import score
+from hmid.pipeline.fits import FIT_ERRORS, Fits, fit_or_fail
 from hmid.split import validation_masks
 from hmid.summary import LogSummary, summarize
 from hmid.workers import Tasks, beside
@@ -319,8 +320,10 @@ def rows(config: ExperimentConfig, split: Split) -> Rows:
 
 def fit(
     config: ExperimentConfig, split: Split, friction, *, workdir: Path, force: bool = False
-) -> list[Fitted]:
-    """Every configured family fitted on the same training rows."""
+) -> Fits:
+    """Every configured family fitted on the same training rows; a fit that fails or diverges
+    is left out with its reason (:mod:`hmid.pipeline.fits`), and the run goes on with the
+    others. Raises :class:`~hmid.errors.FitError` if none is left."""
     context = FitContext(config.seed, workdir, friction, force, beside)
     signals = split.signals
     # families see the explained quantity only where they may fit: NaN elsewhere, so no
@@ -331,8 +334,13 @@ def fit(
     # next when it is free; a family fits the same wherever it runs
     tasks = Tasks(ahead=1) if len(config.models) > 1 else Tasks(workers=0)
     for spec in config.models:
-        tasks.submit(spec.fit, data, context)
-    return [model for models in tasks.results() for model in models]
+        tasks.submit(fit_or_fail, spec, data, context)
+    results = tasks.results()
+    fits = Fits(tuple(m for good, _ in results for m in good),
+                tuple(f for _, bad in results for f in bad))  # fmt: skip
+    if not fits.fitted:
+        raise FitError("fit: every model failed: " + "; ".join(f.message() for f in fits.failed))
+    return fits
 
 
 @dataclass(frozen=True)
@@ -424,12 +432,40 @@ def _draws(model: Fitted):
     return getattr(model.model, "posterior_draws", None)
 
 
-def loop(config: ExperimentConfig, split: Split, fit: list[Fitted]):
-    """The loop on the model ``loop.base`` names (None if the experiment has no loop)."""
+def loop(config: ExperimentConfig, split: Split, fit: Fits, friction=None):
+    """The loop on the model ``loop.base`` names (None if the experiment has no loop). If that
+    model failed, the loop starts from the converged model with the lowest training RMSE, and
+    says so; a loop that fails on its data is reported (a warning, no loop section), never a
+    traceback. ``friction``: the free falls' estimate, whose uncertainty a refit of its level
+    is compared with."""
     if config.loop is None:
         return None
     from hmid.loop import LoopBase, Setting, run_loop
 
-    model = next(m for m in fit if m.name == config.loop.base)
+    model, note = loop_base(config.loop.base, fit)
     base = LoopBase.of(model, FitData(split.signals, config.rig))
-    return run_loop(split.signals, base, config.loop, Setting.of(config.rig), config.seed)
+    setting = Setting.of(config.rig)
+    if friction is not None and setting.known_level is not None:
+        setting = replace(setting, known_se=float(friction.se.get("Fc", 0.0)))
+    try:
+        result = run_loop(split.signals, base, config.loop, setting, config.seed,
+                          across_logs=config.split.kind == "logs")  # fmt: skip
+    except (*FIT_ERRORS, ValueError, IndexError) as err:
+        warnings.warn(f"loop: it failed on the base {model.name}: {' '.join(str(err).split())}; "
+                      "the report has no loop section", HmidWarning, stacklevel=2)  # fmt: skip
+        return None
+    return replace(result, notes=(note, *result.notes)) if note else result
+
+
+def loop_base(name: str, fit: Fits) -> tuple[Fitted, str]:
+    """The model named ``name``, or, if it failed, the converged model with the lowest
+    training RMSE and the one line that says so."""
+    model = next((m for m in fit if m.name == name), None)
+    if model is not None:
+        return model, ""
+    model = min(fit, key=lambda m: np.nan_to_num(m.fit_summary.rmse, nan=np.inf))
+    why = next((f.reason for f in getattr(fit, "failed", ()) if f.name == name), "it failed")
+    return model, (
+        f"loop.base {name} failed ({why}); the loop starts from {model.name} instead, the "
+        "converged model with the lowest training RMSE"
+    )

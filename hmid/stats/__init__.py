@@ -22,7 +22,7 @@ correlation. The estimators, and why each:
   (:class:`ARWhite`), for the friction stage.
 * **inference on n_eff** (:mod:`._effective`): nested-model F-test and BIC
   (:class:`NestedTest`), Holm's correction (:func:`holm`) and profile-likelihood intervals
-  (:func:`profile_interval`), for the loop.
+  (:func:`likelihood_interval`), for the loop.
 """
 
 from hmid.stats._ar_white import ARWhite, fit_ar_white
@@ -37,7 +37,7 @@ from hmid.stats._autocorrelation import (
     residual_tau_int,
     sokal_window,
 )
-from hmid.stats._effective import NestedTest, holm, profile_interval
+from hmid.stats._effective import NestedTest, holm, likelihood_interval
 from hmid.stats._sandwich import autocov_covariance, hac_covariance, hac_lags
 
 __all__ = [
@@ -53,8 +53,8 @@ __all__ = [
     "holm",
     "integrated_time",
     "lag_count",
+    "likelihood_interval",
     "masked_series",
-    "profile_interval",
     "residual_correlation",
     "residual_tau_int",
     "sokal_window",

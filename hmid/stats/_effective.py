@@ -6,7 +6,7 @@ A residual correlated for tau_int samples (:func:`hmid.stats.residual_tau_int`) 
 tau_int times too confident. Here: the extra-sum-of-squares F-test and BIC of a bigger model
 against a smaller one on n_eff (:class:`NestedTest`), Holm's correction over a round of candidate
 tests (:func:`holm`), and the profile-likelihood interval of a grid parameter on n_eff
-(:func:`profile_interval`).
+(:func:`likelihood_interval`).
 """
 
 from __future__ import annotations
@@ -50,12 +50,36 @@ def holm(p: list[float]) -> np.ndarray:
     return out
 
 
-def profile_interval(
-    grid: np.ndarray, sse: np.ndarray, n_eff: float, confidence: float
+def likelihood_interval(
+    grid, sse, n_eff: float, confidence: float, best: tuple[float, float], log: bool = False
 ) -> tuple[float, float]:
-    """Grid values whose profile likelihood ratio n_eff ln(SSE/SSE_min) is within the chi²(1)
-    quantile: a likelihood interval at the grid's resolution."""
-    from scipy import stats
+    """The profile-likelihood interval of a profiled parameter, to the precision of its
+    estimate: ``best`` = (value, SSE) of the refined fit (between grid points) joins the grid's
+    profile (SSE; inf where not evaluated), and each end is where the likelihood ratio
+    n_eff ln(SSE/SSE_min) crosses the chi²(1) quantile, interpolated in its square root (about
+    linear in the parameter near the optimum; in the logarithm of the parameter on a log grid)
+    between the last value inside and the first outside. An end with no value outside it is the
+    grid's edge. The interval always contains the estimate."""
+    value, least = best
+    x = np.append(np.asarray(grid, dtype=float), value)
+    s = np.append(np.asarray(sse, dtype=float), least)
+    order = np.argsort(x, kind="stable")
+    x, s = x[order], s[order]
+    known = np.isfinite(s)
+    x, s = x[known], s[known]
+    root = np.sqrt(np.maximum(n_eff * np.log(s / s.min()), 0.0))
+    from scipy.stats import chi2
 
-    inside = n_eff * np.log(sse / sse.min()) <= stats.chi2.ppf(confidence, 1)
-    return float(grid[inside].min()), float(grid[inside].max())
+    limit = np.sqrt(chi2.ppf(confidence, 1))
+    inside = np.flatnonzero(root <= limit)
+    logarithmic = log and bool(np.all(x > 0))
+    u = np.log(x) if logarithmic else x
+    ends = []
+    for i, outer in ((inside.min(), -1), (inside.max(), 1)):
+        j = i + outer
+        if not 0 <= j < len(x):
+            ends.append(float(x[i]))  # the grid's edge
+            continue
+        end = u[i] + (u[j] - u[i]) * (limit - root[i]) / (root[j] - root[i])
+        ends.append(float(np.exp(end)) if logarithmic else float(end))
+    return min(ends[0], value), max(ends[1], value)

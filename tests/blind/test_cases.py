@@ -24,6 +24,9 @@ def _result(effects, verdict=Verdict.EXPLAINED):
         verdict=verdict,
         before=scores,
         after=scores,
+        notes=(),
+        base_name="sls",
+        base_parameters=pd.DataFrame(),
     )
 
 
@@ -55,3 +58,12 @@ def test_outcomes_are_judged_by_what_was_claimed():
     assert not outcome(outside, _result([], Verdict.NOTHING_ATTRIBUTABLE))["correct"]
     claimed = outcome(outside, _result(["coulomb.x"], Verdict.PATTERN_REMAINS))
     assert not claimed["correct"] and claimed["confidently wrong"]
+    # additions that did worse on the held-out rows are counted; intervals are checked
+    worse = _result(["viscous"])
+    worse.notes = ("added viscous, but the held-out error rose 0.1 → 0.2 N: ...",)
+    worse.base_parameters = pd.DataFrame(
+        {"parameter": ["k", "tau"], "value": [1.0, 0.5], "lower": [0.9, 0.6], "upper": [1.1, 0.7]}
+    )
+    row = outcome(lib, worse)
+    assert row["added, then worse"] and row["intervals without their estimate"] == "sls: tau"
+    assert not outcome(lib, _result(["viscous"]))["added, then worse"]

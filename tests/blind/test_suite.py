@@ -2,6 +2,7 @@
 
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 from hmid.blind import load_suite, plan_cases
@@ -16,20 +17,28 @@ def test_the_reduced_blind_suite_meets_every_pass_mark(tmp_path):
     run_dir, table, targets = run(CI_SUITE, results=tmp_path)
     suite = load_suite(CI_SUITE)
     # every effect, the clean controls, and confidently wrong names over all effects
-    assert len(targets) == len(suite.effects) + 2
+    assert len(targets) == len(suite.effects) + len(suite.declared) + 2
     missed = targets.loc[~targets["met"], ["target", "measured"]]
     assert missed.empty, f"pass marks missed:\n{missed}\n{table}"
     assert (run_dir / "blind.md").is_file() and (run_dir / "manifest.json").is_file()
     assert len(list((run_dir / "cases").glob("*.json"))) == len(plan_cases(suite))
     # the errors the loop removed are real: every in-library effect lowers the held-out RMSE
+    declared = [d.name for d in suite.declared]  # clean data: no effect to remove
     found = table[(table["effect"] != "clean") & (table["expected"] != "—")]
+    found = found[~found["effect"].isin(declared)]
     assert (found["RMSE after [N]"] < found["RMSE before [N]"]).all()
+    # every interval the loop printed contains its estimate; additions that did worse on the
+    # held-out rows are counted
+    outcomes = pd.read_csv(run_dir / "outcomes.csv", keep_default_na=False)
+    excluded = outcomes["intervals without their estimate"]
+    assert (excluded == "").all(), excluded[excluded != ""].tolist()
+    assert "added, then held-out worse" in table
 
 
 def test_full_suite_config_is_valid_and_plans_every_case():
     suite = load_suite(REPO / "configs" / "blind" / "full.yaml")
     cases = plan_cases(suite)
-    strengths = sum(len(e.strengths) for e in suite.effects)
+    strengths = sum(len(e.strengths) for e in (*suite.effects, *suite.declared))
     assert len(cases) == suite.clean_seeds + suite.seeds * strengths
     assert len({c.seed for c in cases}) == len(cases)
 

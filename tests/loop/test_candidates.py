@@ -57,7 +57,8 @@ def test_the_library_is_generated_from_the_rigs_channels():
     assert not any(n.endswith((".P", ".x")) for n in names)
     # a direction-dependent Coulomb level is not identifiable against a free offset
     assert "coulomb.direction" not in names and "viscous.direction" in names
-    # no declared friction sign: no friction candidate; no position: no elastic or motion ones
+    # no friction sign (none declared, no damper or mass in the balance): no friction
+    # candidate; no position: no elastic or motion ones
     assert not any(n.split(".")[0] in ("coulomb", "viscous", "stribeck")
                    for n in library(Setting(None, "x", ("x", "v", "a"))))  # fmt: skip
     assert set(library(Setting(None, None, ("u",)))) == {"zero_drift", "delay.u", "lag.u"}
@@ -75,3 +76,20 @@ def test_special_cases_are_refinements_not_rivals():
 def test_an_effect_the_rig_cannot_show_is_a_one_line_error():
     with pytest.raises(Exception, match=r"delay\.P.*offers"):
         make_candidates(["delay.P"], Setting(1, "x", ("x", "v", "a")))
+
+
+def test_every_friction_coefficient_must_oppose_the_motion_each_direction_too():
+    offered = library(RICH)
+    one_sided = offered["stribeck.direction"]
+    # a seal's alternative with delta_neg = -13.8 [-15.7, -11.9] N is no friction
+    assert not one_sided.signs_hold({"delta_pos": 4.0, "delta_neg": -11.9})
+    assert one_sided.signs_hold({"delta_pos": 4.0, "delta_neg": 0.3})  # zero within reach
+    assert not offered["viscous.direction"].signs_hold({"b_pos": 2.0, "b_neg": -0.5})
+
+
+def test_timing_grids_follow_the_sample_rate():
+    from hmid.loop.candidates.timing import DELAYS, delays
+
+    assert delays(None) == DELAYS == delays(0.005)  # 200 Hz: 2.5 ms steps are finer
+    fast = delays(0.001)  # 1 kHz: a 0.6 ms delay needs values that bracket it
+    assert fast[1] == 0.001 and fast[-1] == DELAYS[-1] and len(fast) == 101

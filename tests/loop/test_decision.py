@@ -6,7 +6,7 @@ from dataclasses import fields, replace
 import pytest
 
 from hmid.loop import Decision
-from hmid.loop.decision import LABELS, decision_table
+from hmid.loop.decision import ACROSS, LABELS, decision_table
 
 
 def _decision(**changes):
@@ -24,7 +24,10 @@ def test_every_field_has_one_label_in_the_tables_order():
 def test_the_table_renders_each_decision_as_a_row():
     decisions = [_decision(), _decision(candidate="coulomb.x", selected=True, cv_change=-0.1)]
     table = decision_table(decisions)
-    assert list(table.columns) == list(LABELS.values())
+    # the columns of a cross-validation across logs only where one was done
+    assert list(table.columns) == [v for k, v in LABELS.items() if k not in ACROSS]
+    across = decision_table([_decision(cv_across=-0.02, cv_across_upper=0.01)])
+    assert list(across.columns) == list(LABELS.values())
     assert table["candidate"].tolist() == ["viscous", "coulomb.x"]
     assert table["selected"].tolist() == [False, True]
     assert math.isnan(table["CV change"].iloc[0]) and table["CV change"].iloc[1] == -0.1

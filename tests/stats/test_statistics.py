@@ -134,3 +134,23 @@ def test_coefficient_intervals_cover_the_truth_under_strongly_correlated_noise()
     coverage = float(np.mean(hits))
     assert 0.9 <= coverage <= 0.99, coverage
     assert np.median(ratio) < 0.92, np.median(ratio)  # narrower than the n/tau_int inflation
+
+
+def test_a_likelihood_interval_is_refined_at_its_crossings_and_holds_its_estimate():
+    from hmid.loop.statistics import likelihood_interval
+
+    grid = np.round(np.arange(0, 0.1001, 0.0025), 4)
+    n_eff, truth, width = 2000.0, 0.0247, 0.0004  # a minimum between grid points, narrow
+    sse = 100 * (1 + ((grid - truth) / width) ** 2 / n_eff)
+    low, high = likelihood_interval(grid, sse, n_eff, 0.95, (truth, 100.0))
+    assert low < truth < high  # at grid resolution this was [0.025, 0.025]
+    half = 1.96 * width  # the exact crossing of this quadratic profile
+    assert truth - 1.05 * half < low < truth and truth < high < truth + 1.05 * half
+    # a log grid, interpolated in the logarithm; the edge of the grid ends an open interval
+    lags = np.geomspace(0.001, 0.2, 24)
+    flat = np.full(24, 50.0)
+    assert likelihood_interval(lags, flat, 100, 0.95, (0.01, 50.0), log=True) == (0.001, 0.2)
+    # values never evaluated (inf) are left out
+    sse = np.where(np.abs(grid - truth) < 0.01, sse, np.inf)
+    low2, high2 = likelihood_interval(grid, sse, n_eff, 0.95, (truth, 100.0))
+    assert (low2, high2) == (low, high)

@@ -38,15 +38,56 @@ class Setting:
     friction_sign: int | None
     position: str | None
     channels: tuple[str, ...]
+    dt: float | None = None  # the logs' sample period, once they are read (timing grids)
+    # the rig declares its friction (a Coulomb term or friction_sign); where it does not, the
+    # sign is that of a force against the motion in its balance, and friction is a hypothesis
+    # (a Coulomb level is a candidate of its own, not refitted in the base)
+    declared: bool = True
+    # where the declared Coulomb level is taken as known: whence ("the free-fall estimate", "its
+    # declared value"); the loop's refit of it is then a test of that hypothesis
+    known_level: str | None = None
+    known_se: float = 0.0  # its standard error (the free-fall estimate's; 0 for a value)
+    fitted_level: str | None = None  # the declared Coulomb term's name where it is fitted
 
     @classmethod
     def of(cls, rig: RigSection) -> Setting:
-        return cls(rig.resolved_friction_sign, rig.position, rig.model_channels)
+        sign = rig.resolved_friction_sign
+        if sign is not None:
+            known, fitted = _levels(rig)
+            return cls(sign, rig.position, rig.model_channels, known_level=known,
+                       fitted_level=fitted)  # fmt: skip
+        return cls(against_motion(rig), rig.position, rig.model_channels, declared=False)
 
     @property
     def inputs(self) -> tuple[str, ...]:
         """Logged channels other than the position (a pressure, a valve command)."""
         return tuple(c for c in self.channels if c not in DERIVED and c != self.position)
+
+
+def _levels(rig: RigSection) -> tuple[str | None, str | None]:
+    """Whence the declared Coulomb level is known, or the name of the one that is fitted."""
+    from hmid.balance.kinds import CoulombTerm, SmoothCoulombTerm
+
+    for term in rig.balance:
+        if isinstance(term, CoulombTerm | SmoothCoulombTerm):
+            if not term.known:
+                return None, term.name
+            return ("the free-fall estimate" if term.value is None else "its declared value"), None
+    return None, None
+
+
+def against_motion(rig: RigSection) -> int | None:
+    """The sign with which a force against the motion enters the rig's explained quantity, from
+    its declared balance: a damper (a term in v whose coefficient physics makes positive), else
+    the inertia (a positive term in a: a force that drives a mass overcomes its friction as it
+    does its inertia, u = m a + f). None if the balance has neither."""
+    from hmid.balance.kinds import ChannelTerm
+
+    for channel in ("v", "a"):
+        for term in rig.balance:
+            if isinstance(term, ChannelTerm) and term.channel == channel and term.positive:
+                return term.sign
+    return None
 
 
 class Candidate(Term):

@@ -9,6 +9,13 @@ their Coulomb level) and would otherwise win as the cheapest explanation of ever
 
 Not offered: a direction-dependent Coulomb *level*: on sliding rows it is a constant offset plus
 a symmetric level, so it is not identifiable against the model's free offset.
+
+Friction is offered on every rig with a position. Where the rig declares none (no Coulomb term,
+no ``friction_sign``), its sign is that of a force against the motion in the declared balance (a
+damper's, else the inertia's: :func:`~hmid.loop.candidates._base.against_motion`), the plain
+Coulomb level is a candidate ("Coulomb friction"), and its level, like every law's coefficient,
+must be against the motion: every direction's coefficient too (a negative Stribeck excess on one
+side is no friction).
 """
 
 from __future__ import annotations
@@ -46,11 +53,19 @@ class Friction(Candidate):
         self.name = law if modulation is None else f"{law}.{modulation}"
         channel = () if modulation in (None, "direction", "t") else (modulation,)
         self.requires = ("v", *channel)
-        # a Coulomb level's change is a correction of the model's level: either sign
+        # a Coulomb level's change is a correction of the model's level: either sign; where
+        # the rig declares no friction, the level is all the friction there is: against the
+        # motion
         self.positive = () if law == "coulomb" else (p,)
+        if not setting.declared and law == "coulomb":
+            self.positive += ("dFc",)
         if modulation is None:
             self.title, self.physics = what, physics
-            if law == "coulomb":
+            if law == "coulomb" and not setting.declared:
+                self.title = "Coulomb friction"
+                self.physics = (f"{physics}, which the rig does not declare: its level dFc, "
+                                "against the motion")  # fmt: skip
+            elif law == "coulomb":
                 self.title = "a Coulomb level other than the model's"
                 self.physics = (f"{physics}, at a level other than the model's (the free-fall "
                                 f"tests', or none): the change dFc")  # fmt: skip
@@ -72,8 +87,10 @@ class Friction(Candidate):
         if setting.friction_sign is None or setting.position is None:
             return
         channels = (setting.position, *setting.inputs)
+        # the plain level is refitted in the base where the rig declares friction
+        level = () if setting.declared else (None,)
         for law, modulations in (
-            ("coulomb", (*channels, "t")),
+            ("coulomb", (*level, *channels, "t")),
             ("viscous", (None, "direction", *channels, "t")),
             ("stribeck", (None, "direction")),
         ):
@@ -119,15 +136,11 @@ class Friction(Candidate):
                 c = self.modulation
                 factor = (signals[raw(c)], signals[c])
                 columns.append(self._law(signals, value, f"{p}_{c}", factor, {c: 1}))
-        return stack(signals, *columns, self.coulomb_level(signals))
-
-    def signs_hold(self, upper):
-        if self.modulation == "direction":
-            # the asymmetry is what the direction adds; the coefficients' common part trades off
-            # against the model's own velocity-like terms (a viscoelastic arm), so only the
-            # larger one must be friction against the motion
-            return max(upper.values(), default=1.0) > 0
-        return super().signs_hold(upper)
+        # a law refits the declared Coulomb level beside it; where none is declared, the level
+        # is a candidate of its own (with a damper declared, viscous + a level would be it)
+        if self.setting.declared or self.law == "coulomb":
+            columns.append(self.coulomb_level(signals))
+        return stack(signals, *columns)
 
     @property
     def follows(self) -> str:
@@ -143,7 +156,7 @@ class Friction(Candidate):
 
 def level(setting: Setting) -> Friction | None:
     """The Coulomb level's change, refitted in the loop's base (None: the rig declares no
-    friction sign, or has no position to move)."""
-    if setting.friction_sign is None or setting.position is None:
+    friction, or has no position to move: a Coulomb level is then a candidate of its own)."""
+    if setting.friction_sign is None or setting.position is None or not setting.declared:
         return None
     return Friction(setting, "coulomb")

@@ -20,6 +20,18 @@ from hmid.balance.operations import declare_sum, lagged
 from hmid.loop.candidates._base import Candidate, Setting, hyper, stack
 
 DELAYS = tuple(np.round(np.arange(0.0, 0.1001, 0.0025), 4))
+
+
+def delays(dt: float | None) -> tuple[float, ...]:
+    """The delay grid: :data:`DELAYS`, in steps of one sample period where the logs are sampled
+    faster than its 2.5 ms (a 0.6 ms delay at 1 kHz needs grid values that bracket it)."""
+    step = DELAYS[1]
+    if dt is None or not 0 < dt < step:
+        return DELAYS
+    step = float(np.round(dt, 6))
+    return tuple(np.round(np.arange(0.0, DELAYS[-1] + step / 2, step), 6))
+
+
 LAGS = tuple(np.round(np.geomspace(0.001, 0.2, 24), 5))
 
 
@@ -87,7 +99,7 @@ class Delay(_Timing):
 
     @property
     def hyper(self):
-        return hyper("d", "s", DELAYS, (False, False), log=False)
+        return hyper("d", "s", delays(self.setting.dt), (False, False), log=False)
 
     @property
     def margins(self):
