@@ -10,8 +10,8 @@ from hmid.stats import (
     autocorrelation,
     holm,
     integrated_time,
+    likelihood_interval,
     masked_series,
-    profile_interval,
 )
 
 
@@ -76,11 +76,12 @@ def test_a_candidate_that_adds_nothing_is_never_significant():
     assert (test.f, test.p_value, test.q) == (0.0, 1.0, 0)
 
 
-def test_profile_interval_holds_the_minimum_and_widens_with_less_data():
+def test_a_likelihood_interval_holds_the_minimum_and_widens_with_less_data():
     grid = np.linspace(0, 1, 21)
     sse = 100 * (1 + (grid - 0.5) ** 2)
-    narrow = profile_interval(grid, sse, 1000, 0.95)
-    wide = profile_interval(grid, sse, 50, 0.95)
+    best = (0.5, 100.0)
+    narrow = likelihood_interval(grid, sse, 1000, 0.95, best)
+    wide = likelihood_interval(grid, sse, 50, 0.95, best)
     assert narrow[0] <= 0.5 <= narrow[1]
     assert wide[0] <= narrow[0] and wide[1] >= narrow[1] and wide != narrow
 
@@ -137,8 +138,6 @@ def test_coefficient_intervals_cover_the_truth_under_strongly_correlated_noise()
 
 
 def test_a_likelihood_interval_is_refined_at_its_crossings_and_holds_its_estimate():
-    from hmid.loop.statistics import likelihood_interval
-
     grid = np.round(np.arange(0, 0.1001, 0.0025), 4)
     n_eff, truth, width = 2000.0, 0.0247, 0.0004  # a minimum between grid points, narrow
     sse = 100 * (1 + ((grid - truth) / width) ** 2 / n_eff)
