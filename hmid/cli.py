@@ -93,6 +93,15 @@ def console_summary(metrics: dict) -> str:
             f"loop on {loop['base']}: {loop['verdict']} ({added}); held-out RMSE "
             f"{loop['base']} {before:.4g} -> {loop['after']} {after:.4g} {unit} (one-step)"
         )
+        lines += [f"  {line}" for line in loop.get("final_model", ())]
+    free = {r["model"]: r for r in metrics.get("free_run") or ()}.get(best["model"])
+    if free is not None:
+        fit = next((v for k, v in free.items() if k.startswith("fit %")), None)
+        if fit is not None:
+            lines.append(
+                f"free run of {best['model']} on the held-out blocks: fit {fit:.1f} % of the "
+                "position (simulated from the inputs and the first state)"
+            )
     findings = metrics.get("sign_findings") or []
     if findings:
         names = ", ".join(f"{f['model']}: {f['parameter']}" for f in findings)
