@@ -23,6 +23,7 @@ from pydantic import BaseModel, ConfigDict
 from hmid._registry import from_registry
 from hmid.balance import RigSection, Signals, SignFinding, Structure
 from hmid.intervals import IntervalNote
+from hmid.models.base import FitStatistics
 
 FAMILIES: dict[str, type[FamilySpec]] = {}
 
@@ -174,30 +175,15 @@ class FitExtras:
 
 
 @dataclass(frozen=True)
-class FitSummary:
+class FitSummary(FitStatistics):
     """How one fitted model fits its training rows, comparable across families (metrics.json's
-    ``fit`` entries; the comparison table reads its attributes).
+    ``fit`` entries; the comparison table reads its attributes): the estimator's
+    :class:`~hmid.models.base.FitStatistics` and what a family adds, ``tau_int`` the residual's
+    integrated autocorrelation time [samples] and ``n_eff`` = ``n_obs`` / ``tau_int`` where a
+    family states them, ``extras`` the family's own. ``record`` names the fields metrics.json
+    writes, in order (each family's keys as it first wrote them, so that metrics stay
+    comparable across versions)."""
 
-    ``r2`` … ``bic`` as :func:`hmid.models.base.fit_statistics` defines them; ``condition_number``
-    is that of the design fitted (after any scaling; None without a linear design),
-    ``condition_number_unscaled`` in physical units; ``tau_int`` the residual's integrated
-    autocorrelation time [samples] and ``n_eff`` = ``n_obs`` / ``tau_int`` where a family
-    states them; ``extras`` the family's own. ``record`` names the fields metrics.json writes,
-    in order (each family's keys as it first wrote them, so that metrics stay comparable
-    across versions)."""
-
-    family: str
-    name: str
-    n_obs: int
-    n_params: int
-    r2: float
-    r2_adj: float
-    rmse: float
-    aic: float
-    bic: float
-    condition_number: float | None = None
-    condition_number_unscaled: float | None = None
-    warnings: tuple[str, ...] = ()
     tau_int: float | None = None
     n_eff: float | None = None
     extras: FitExtras | None = None

@@ -2,13 +2,13 @@
 
 Each family subclasses :class:`ForceModel` (scikit-learn style: ``fit(X, y)`` returns the model,
 fitted attributes end in ``_``, :class:`NotFittedError` before ``fit``) and summarises its fit as
-a :class:`FitSummary` with :class:`Coefficient` values in physical units.
+a :class:`FitStatistics` with :class:`Coefficient` values in physical units.
 """
 
 from hmid.balance.monomial import Monomial
 from hmid.models.base import (
     Coefficient,
-    FitSummary,
+    FitStatistics,
     ForceModel,
     NotFittedError,
     fit_statistics,
@@ -31,7 +31,7 @@ __all__ = [
     "DURBIN_WATSON_LIMIT",
     "VARIANTS",
     "Coefficient",
-    "FitSummary",
+    "FitStatistics",
     "ForceModel",
     "Monomial",
     "NotFittedError",

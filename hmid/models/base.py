@@ -16,7 +16,7 @@ listed), each built by its :meth:`ForceModel.example`.
 :class:`~hmid.errors.SignalError` naming the column (and the row, counted from 0 in the order
 given, for non-finite values).
 
-Every fitted family exposes ``summary_``, a :class:`FitSummary` whose statistics are computed the
+Every fitted family exposes ``summary_``, a :class:`FitStatistics` whose statistics are computed the
 same way for all families (:func:`fit_statistics`), so a comparison stage can treat them alike.
 """
 
@@ -61,7 +61,7 @@ class Coefficient:
 
 
 @dataclass(frozen=True)
-class FitSummary:
+class FitStatistics:
     """Goodness of fit of one fitted model, comparable across families.
 
     ``r2`` is ``1 - SSR/SST`` with SST about the mean of ``y``; ``r2_adj`` corrects it for

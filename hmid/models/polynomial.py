@@ -55,7 +55,7 @@ from hmid.models._design import row_design
 from hmid.models._lstsq import RowBlocks, tall_lstsq
 from hmid.models.base import (
     Coefficient,
-    FitSummary,
+    FitStatistics,
     ForceModel,
     fit_statistics,
     fit_table,
@@ -105,7 +105,7 @@ class PolynomialModel(ForceModel):
 
     Fitted attributes, in physical units and term order: ``coef_``, ``bse_`` (standard errors),
     ``conf_int_`` (n_terms x 2), ``pvalues_``, ``term_names_``, ``coefficients_`` (tuple of
-    :class:`Coefficient`), ``summary_`` (:class:`FitSummary`); also ``params_`` (the coefficients
+    :class:`Coefficient`), ``summary_`` (:class:`FitStatistics`); also ``params_`` (the coefficients
     of the *scaled* features), ``scales_`` (the divisor of each
     variable), ``condition_number_`` (scaled design), ``condition_number_unscaled_``,
     ``durbin_watson_``, ``tau_int_`` (the residual's integrated autocorrelation time in rows),
@@ -248,7 +248,7 @@ class PolynomialModel(ForceModel):
             for k, term in enumerate(self._terms)
         )
         fit_stats = fit_statistics(y, y - resid, p)
-        self.summary_ = FitSummary(
+        self.summary_ = FitStatistics(
             family=self.family,
             name=self.name,
             n_obs=n,

@@ -9,7 +9,7 @@ import pytest
 from hmid.errors import HmidError, SignalError
 from hmid.models import (
     Coefficient,
-    FitSummary,
+    FitStatistics,
     ForceModel,
     NotFittedError,
     PolynomialModel,
@@ -54,7 +54,7 @@ def test_fit_returns_self_sets_trailing_underscore_attributes_and_predicts(model
     prediction = model.predict(X)
     assert prediction.shape == (len(X),) and np.isfinite(prediction).all()
     summary = model.summary_
-    assert isinstance(summary, FitSummary) and summary.n_obs == len(X)
+    assert isinstance(summary, FitStatistics) and summary.n_obs == len(X)
     assert all(isinstance(c, Coefficient) for c in model.coefficients_)
     assert len(model.coefficients_) == summary.n_params
 

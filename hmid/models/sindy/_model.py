@@ -41,7 +41,7 @@ from hmid.errors import ConfigError, SignalError
 from hmid.intervals import IntervalNote
 from hmid.models.base import (
     Coefficient,
-    FitSummary,
+    FitStatistics,
     ForceModel,
     check_frame,
     check_target,
@@ -199,7 +199,7 @@ class SINDyForceModel(ForceModel):
         )
         fitted = design @ (xi * y_scale / rms)
         n_params = int(np.count_nonzero(xi))
-        self.summary_ = FitSummary(
+        self.summary_ = FitStatistics(
             family=self.family,
             name=self.name,
             n_obs=len(y),
