@@ -45,7 +45,9 @@ def free_run_section(config, free_runs: dict, units, out, drawing):
     out.csv(table, "free_run_scores.csv")
     label = config.rig.explained.name
     figure = out.figures / "free_run.png"
-    drawing.submit(plot_free_runs, free_runs, figure, label, units["target"])
+    simulated = any(run.runs for run in free_runs.values())
+    if simulated:
+        drawing.submit(plot_free_runs, free_runs, figure, label, units["target"])
     bands = sorted({f"{r.band} ({100 * r.level:g} %)" for r in free_runs.values() if r.level})
     text = (
         f"Each model run **free** over the held-out blocks: {position} simulated from the "
@@ -62,7 +64,9 @@ def free_run_section(config, free_runs: dict, units, out, drawing):
         "Free run on held-out data",
         text=text,
         tables=(Table(table, "Free-run scores per model (held-out blocks)"),),
-        figures=(Figure(figure, "Measured and simulated position, the longest held-out blocks"),),
+        figures=(Figure(figure, "Measured and simulated position, the longest held-out blocks"),)
+        if simulated
+        else (),
     )
     return section, table
 
