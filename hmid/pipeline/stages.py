@@ -420,7 +420,7 @@ def freerun(config: ExperimentConfig, split: Split, fit: list[Fitted], export: d
 
 
 #: Draws of a model's coefficients behind its free run's band, and the band's level.
-FREE_RUN_DRAWS, FREE_RUN_LEVEL = 50, 0.9
+FREE_RUN_DRAWS, FREE_RUN_LEVEL = 20, 0.9
 
 
 def file_stem(model_name: str) -> str:
