@@ -139,7 +139,8 @@ class Runner:
                         artifacts[stage.name] = found[0]
                     else:
                         artifacts[stage.name] = self._compute(stage, config, artifacts)
-                        write_entry(path, artifacts[stage.name])
+                        # labelled with its stage: an entry copied over another's is caught
+                        write_entry(path, (stage.name, artifacts[stage.name]))
             cached = (found is not None) if stage.store else None
             record = StageRecord(key, cached, time.perf_counter() - start)
             self.records[stage.name] = record
@@ -163,7 +164,11 @@ class Runner:
         if not path.exists():
             return None
         try:
-            return (read_entry(path),)
+            entry = read_entry(path)
+            if not (isinstance(entry, tuple) and len(entry) == 2 and entry[0] == stage.name):
+                held = entry[0] if isinstance(entry, tuple) and entry else type(entry).__name__
+                raise StaleEntry(f"holds {held!r}, not stage {stage.name!r}'s result")
+            return (entry[1],)
         except StaleEntry as why:
             warnings.warn(
                 f"{path}: cache entry {why}; recomputing stage {stage.name!r}",

@@ -110,7 +110,18 @@ def test_a_damaged_entry_is_recomputed_with_a_note_never_used(tmp_path, damage):
     assert out == {"first": 10, "second": 12}
     assert calls == ["first"]  # 'second' keeps its valid entry: same key, same input
     assert not runner.records["first"].cached
-    assert read_entry(path) == 10  # the entry is whole again
+    assert read_entry(path) == ("first", 10)  # the entry is whole again, with its stage
+
+
+def test_an_entry_copied_over_another_stages_is_recomputed_with_a_note(tmp_path):
+    calls = []
+    Runner(tmp_path).run(_stages(calls), Cfg(1, 2))
+    first, second = _entry(tmp_path, "first"), _entry(tmp_path, "second")
+    first.write_bytes(second.read_bytes())  # a valid checksum, another stage's content
+    calls.clear()
+    with pytest.warns(HmidWarning, match="holds 'second', not stage 'first'"):
+        out = Runner(tmp_path).run(_stages(calls), Cfg(1, 2))
+    assert out == {"first": 10, "second": 12} and calls == ["first"]
 
 
 def test_the_key_covers_the_stage_wiring_and_the_computing_libraries(tmp_path, monkeypatch):
