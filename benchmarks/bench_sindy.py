@@ -1,5 +1,6 @@
-"""SINDy family benchmarks: fit time on 30k rows with a 50-model ensemble, free-run time, and
-(with ``--study``) term recovery and interval coverage against simulator truth across seeds.
+"""SINDy family benchmarks: fit time on 30k rows with a 50-model ensemble and (with ``--study``)
+term recovery and interval coverage against simulator truth across seeds. The free run, the
+same integrator for every family, is timed by ``bench_freerun.py``.
 
 Run: ``.venv/bin/python benchmarks/bench_sindy.py [--study [N_SEEDS]]``. Prints Markdown tables.
 The baseline of the fit is pysindy's own ``EnsembleOptimizer`` (row bagging, 50 models) around
@@ -18,7 +19,7 @@ from _timing import median_time
 
 from hmid.balance import RigSection
 from hmid.friction import Coulomb, FallRig, FrictionEstimate
-from hmid.models.sindy import EquationOfMotion, SINDyForceModel, SINDySettings, free_run
+from hmid.models.sindy import SINDyForceModel, SINDySettings
 from hmid.simulate.params import MuscleParams, RigParams
 from hmid.simulate.profiles import Chirp
 from hmid.simulate.rig import integrate
@@ -82,28 +83,6 @@ def bench_fit(rows) -> None:
     rows.append(("SINDy fit: 30k rows, 17 terms, CV path (30 x 5 folds) + 50-model blocked "
                  "bootstrap", "pysindy EnsembleOptimizer(STLSQ), 50 row-bagged models, no CV",
                  ours, base, f"selected {', '.join(model.selected)}"))  # fmt: skip
-
-
-def bench_free_run(rows) -> None:
-    frame = truth_frame(30.0)
-    train = frame[(~frame["stuck"]) & (frame["t"] < 21)]
-    model = SINDyForceModel(SINDySettings(keep=())).fit(
-        train[["log", "t", "x", "v", "P"]], train["F_m"]
-    )
-    fall = FallRig(RIG.M + RIG.m1, RIG.m1 * RIG.g)
-    friction = FrictionEstimate.known(Coulomb(), {"Fc": RIG.friction.coulomb}, fall)
-    rig = RigSection.model_validate(DEMO_RIG)
-    eom = EquationOfMotion.from_rig(model.force_map(), rig, friction, model.v0)
-    sequences = {
-        "chirp": frame.assign(
-            train=(~frame["stuck"]) & (frame["t"] < 21),
-            validation=(~frame["stuck"]) & (frame["t"] >= 21),
-        )
-    }
-    result = free_run(eom, sequences, substeps=2)
-    ours = median_time(lambda: free_run(eom, sequences, substeps=2), 3)
-    rows.append(("free run: 9 s held-out at 1 kHz, RK4, 2 substeps", "—", ours, None,
-                 f"x RMSE {1e3 * result.rmse:.3g} mm"))  # fmt: skip
 
 
 # -- recovery and coverage study ---------------------------------------------------------------
@@ -183,7 +162,6 @@ def study(seeds: int) -> str:
 def main(argv: list[str]) -> int:
     rows: list[tuple] = []
     bench_fit(rows)
-    bench_free_run(rows)
     lines = ["| what | baseline | hmid [s] | baseline [s] | note |", "|---|---|---:|---:|---|"]
     for what, baseline, ours, base, note in rows:
         base_s = f"{base:.3f}" if base else "—"

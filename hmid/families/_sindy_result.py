@@ -1,18 +1,16 @@
-"""What the SINDy family hands the pipeline: the force map for one-step scoring, the equation of
-motion and its free run on held-out data, and the report's extra text, tables and figure."""
+"""What the SINDy family hands the pipeline: the force map for one-step scoring, its terms (the
+structure that the model file states and the free run integrates, as for every family) and the
+report's extra text and tables."""
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from hmid.families.base import Extras, FigureSpec, FitData, FittedModel
-from hmid.models.sindy._freerun import EquationOfMotion, FreeRunResult
+from hmid.families.base import Extras, FitData, FittedModel
 from hmid.models.sindy._model import SINDyForceModel
 
 VARIABLES = ("x", "v", "P")
@@ -33,7 +31,7 @@ def sequences(signals) -> dict[str, pd.DataFrame]:
 
 @dataclass(frozen=True)
 class SINDyResult(FittedModel):
-    """A fitted SINDy variant: ``force`` (one-step), ``eom`` and ``free_run`` (None if skipped).
+    """A fitted SINDy variant: ``force``, the force map (one-step).
 
     ``velocity`` re-estimates v of a whole log (``(t, x) -> v``) when the family does not use the
     pipeline's velocity; one-step predictions then use it too, so fit and scoring agree.
@@ -41,12 +39,9 @@ class SINDyResult(FittedModel):
     """
 
     force: SINDyForceModel
-    eom: EquationOfMotion | None
-    free_run: FreeRunResult | None
     velocity: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
     velocity_label: str = "the pipeline's velocity estimate (denoise section)"
     sign: int = 1
-    skipped: str = ""  # why there is no free run
 
     def predict(self, data: FitData) -> np.ndarray:
         """One-step force on ``data``'s rows (v re-estimated from whole logs if need be)."""
@@ -76,8 +71,6 @@ class SINDyResult(FittedModel):
     def report_extras(self) -> Extras:
         force = self.force
         text = [
-            "Equation of motion from the rig's declared balance and motion"
-            + (f": `{self.eom.text()}`" if self.eom is not None else ""),
             _threshold_text(force),
             _inclusion_text(force),
             f"Velocity: {self.velocity_label}. Rows with |v| < {force.stick_speed:g} m/s "
@@ -92,17 +85,7 @@ class SINDyResult(FittedModel):
             names = [f.pretty for f in force.features_]
             tables.append((force.choice_.table(names).head(12),
                            "Candidate supports: blocked cross-validation"))  # fmt: skip
-        figures = []
-        if self.free_run is not None:
-            text.append(self.free_run.text())
-            tables.append((self.free_run.table(), "Free run on held-out blocks"))
-            if self.free_run.blocks:
-                figures.append(FigureSpec(plot_free_run, (self.free_run,), "free_run.png",
-                                          "Free run of the discovered equation of motion on "
-                                          "held-out blocks: measured vs simulated x"))  # fmt: skip
-        else:
-            text.append(f"Free run: skipped ({self.skipped or 'no held-out block'}).")
-        return Extras("\n\n".join(text), tables, figures)
+        return Extras("\n\n".join(text), tables, [])
 
 
 #: What no interval of the family includes.
@@ -187,38 +170,3 @@ def with_velocity(
         index = np.searchsorted(full["t"].to_numpy(), rows["t"].to_numpy())
         out.loc[rows.index, "v"] = v[index]
     return out
-
-
-def plot_free_run(result: FreeRunResult, path: Path) -> Path:
-    """Measured and simulated x over the held-out blocks (end to end), and their difference."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(11, 6))
-    top, bottom = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1]})
-    offset = 0.0
-    for k, block in enumerate(result.blocks):
-        t = block.t - block.t[0] + offset
-        top.plot(t, 1e3 * block.x_measured, color="0.55", lw=1.0,
-                 label="measured x" if k == 0 else None)  # fmt: skip
-        top.plot(t, 1e3 * block.x_simulated, color="C0", lw=0.9,
-                 label="free run" if k == 0 else None)  # fmt: skip
-        bottom.plot(t, 1e3 * (block.x_simulated - block.x_measured), color="C3", lw=0.8)
-        top.axvline(offset, color="0.85", lw=0.8)
-        top.text(offset, 1.0, f" {block.log}", transform=top.get_xaxis_transform(), va="top",
-                 fontsize=7, color="0.4")  # fmt: skip
-        if block.failed_at is not None:
-            when = block.failed_at - block.t[0] + offset
-            for ax in (top, bottom):
-                ax.axvline(when, color="C3", ls="--", lw=1.0)
-            top.text(when, 0.5, f" {block.status} at t = {block.failed_at:.3f} s", color="C3",
-                     transform=top.get_xaxis_transform(), fontsize=8)  # fmt: skip
-        offset = t[-1] + 0.2
-    rmse = result.rmse
-    top.set(ylabel="x [mm]", title="Free run of the discovered ODE, driven by measured P"
-            + (f" (x RMSE {1e3 * rmse:.3g} mm)" if math.isfinite(rmse) else ""))  # fmt: skip
-    top.legend(loc="lower right", fontsize=8)
-    bottom.axhline(0, color="k", lw=0.6)
-    bottom.set(xlabel="held-out time, blocks end to end [s]", ylabel="simulated − measured [mm]")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    return path

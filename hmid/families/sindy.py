@@ -1,5 +1,5 @@
 """The SINDy family: a sparse force map F_m(x, v, P) discovered with pysindy, with per-term
-inclusion probabilities and intervals, and a free run of the resulting equation of motion.
+inclusion probabilities and intervals.
 
 Two questions, two answers: a term's *inclusion probability* (the blocked-bootstrap ensemble)
 says how sure the data are that it belongs in the model; the *interval* of a selected
@@ -9,11 +9,12 @@ the polynomial family's) says how well the data pin it down **given the selected
 Design (issue 4): the muscle force is a sparse regression ``F_m = Theta(x, v, P) xi`` on the
 sliding training rows (target: the pipeline's reconstructed F_m), scored one-step like the
 polynomial family; the equation of motion ``(M + m1) a = F_m - m1 g - friction(v)`` uses the
-identified friction and is run free on each held-out block, driven by the measured pressure.
+identified friction and runs free on each held-out block, driven by the measured pressure, as
+every family's model does (the pipeline's ``freerun`` stage, :mod:`hmid.portable.freerun`).
 SINDy-with-control on the state [x, v] was not chosen: its target would be the estimated
 acceleration (the noisiest signal of the rig), and the stuck samples (a = 0 while the forces do not
 balance the sign(v) friction) would sit in the target itself. See
-:mod:`hmid.models.sindy` for the regression, threshold rule, ensemble and integrator.
+:mod:`hmid.models.sindy` for the regression, threshold rule and ensemble.
 
 Config (``models: [{family: sindy, ...}]``)::
 
@@ -22,7 +23,7 @@ Config (``models: [{family: sindy, ...}]``)::
     degree: 3                   # total degree, 1-4
     max_degree: {P: 1}          # caps per variable (pressure linear, as in the thesis)
     friction_terms: true        # add tanh(v / v0) to the library
-    v0: 0.001                   # m/s, smooth-sign speed (library and free-run friction)
+    v0: 0.001                   # m/s, smooth-sign speed of the library's tanh(v / v0)
     stick_speed: 0.01           # m/s, rows with |v| below are left out (stick, transitions)
     keep: [x, P]                # terms never thresholded (physics prior; [] lets CV decide)
     threshold: cv               # or a number: RMS contribution / std(F_m) below which terms go
@@ -39,7 +40,6 @@ Config (``models: [{family: sindy, ...}]``)::
     seed_offset: 0              # ensemble seed = experiment seed + seed_offset
     velocity: {kind: pipeline}  # or {kind: smoothed_finite_difference, window_s: 0.05,
                                 #     polyorder: 3} (pysindy, on each whole log)
-    free_run: {enabled: true, substeps: 2, max_seconds: 60}
 """
 
 from __future__ import annotations
@@ -47,25 +47,15 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from typing import Annotated, ClassVar, Literal
 
-import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hmid.balance import RigSection
-from hmid.errors import ConfigError
 from hmid.families.base import FamilySpec, FitContext, FitData, FitExtras, FitSummary, Fitted
 from hmid.models.sindy._settings import SINDySettings
 
 
 class _Section(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
-
-class FreeRun(_Section):
-    """Fixed-step RK4 free run on each held-out block, with a wall-time bound."""
-
-    enabled: bool = True
-    substeps: Annotated[int, Field(ge=1, le=64)] = 2
-    max_seconds: Annotated[float, Field(gt=0, le=3600)] = 60.0
 
 
 class PipelineVelocity(_Section):
@@ -101,11 +91,10 @@ class SmoothedFiniteDifferenceVelocity(_Section):
 
 
 class SINDySpec(SINDySettings, FamilySpec):
-    """A SINDy force map and its equation of motion; see the module docstring for the keys.
+    """A SINDy force map; see the module docstring for the keys.
 
     The fit's hyperparameters are :class:`~hmid.models.sindy.SINDySettings` (declared and
-    validated there, once); the family adds its name, the seed offset, the velocity and the
-    free run."""
+    validated there, once); the family adds its name, the seed offset and the velocity."""
 
     family: Literal["sindy"] = "sindy"
     imports: ClassVar[tuple[str, ...]] = ("hmid.models.sindy", "hmid.models.sindy._stlsq")
@@ -114,7 +103,6 @@ class SINDySpec(SINDySettings, FamilySpec):
     velocity: Annotated[
         PipelineVelocity | SmoothedFiniteDifferenceVelocity, Field(discriminator="kind")
     ] = PipelineVelocity()
-    free_run: FreeRun = FreeRun()
 
     # terms whose coefficient physics makes positive (e.g. [P]); a whole interval below zero is
     # a sign finding, as for the balance's positive terms
@@ -156,7 +144,7 @@ class SINDySpec(SINDySettings, FamilySpec):
             sequences,
             with_velocity,
         )
-        from hmid.models.sindy import EquationOfMotion, SINDyForceModel, free_run
+        from hmid.models.sindy import SINDyForceModel
         from hmid.models.sindy._library import canonical_name
 
         velocity = self.velocity.build()
@@ -168,30 +156,7 @@ class SINDySpec(SINDySettings, FamilySpec):
             self.settings(), seed=context.seed + self.seed_offset, name=self.name
         )
         model.fit(frame, data.slot_sign * data.y)
-        notes = list(model.summary_.warnings)
-        eom, run, skipped = None, None, "disabled in the config"
-        if self.free_run.enabled:
-            try:
-                eom = EquationOfMotion.from_rig(model.force_map(), data.rig, context.friction,
-                                                self.v0)  # fmt: skip
-            except ConfigError as err:
-                skipped = str(err)
-                notes.append(f"free run skipped: {err}")
-            if eom is not None:
-                speeds = None
-                if velocity is not None:
-                    speeds = {n: velocity(s["t"].to_numpy(), s["x"].to_numpy())
-                              for n, s in whole.items()}  # fmt: skip
-                run = free_run(
-                    eom, whole, substeps=self.free_run.substeps,
-                    max_seconds=self.free_run.max_seconds, velocity=speeds,
-                )  # fmt: skip
-                notes.extend(
-                    f"free run {b.status} at t = {b.failed_at:.4f} s on {b.log} ({b.reason})"
-                    for b in run.blocks
-                    if b.status != "ok"
-                )
-        notes.append(interval_note(model))
+        notes = [*model.summary_.warnings, interval_note(model)]
         extras = SINDyExtras(
             threshold=model.threshold_,
             selected_terms=tuple(model.selected),
@@ -199,11 +164,9 @@ class SINDySpec(SINDySettings, FamilySpec):
             ensemble_models=model.n_models,
             intervals=model.intervals,
             residual_tau_int_rows=model.tau_int_,
-            free_run=None if run is None else FreeRunSummary.of(run.summary()),
         )
         summary = FitSummary.of_model(model.summary_, extras=extras)
-        result = SINDyResult(model, eom, run, velocity, self.velocity.label(), data.slot_sign,
-                             skipped)  # fmt: skip
+        result = SINDyResult(model, velocity, self.velocity.label(), data.slot_sign)
         table = model.coefficient_table()
         positive = [canonical_name(k) for k in self.positive]
         findings = declared_positive(f"sindy:{self.name}", table, positive, data.rig.position)
@@ -224,32 +187,9 @@ class SINDySpec(SINDySettings, FamilySpec):
 
 
 @dataclass(frozen=True)
-class FreeRunSummary:
-    """The free run on the held-out blocks (:meth:`hmid.models.sindy.FreeRun.summary`): blocks
-    run, diverged and stopped, the x RMSE [m] of those that ran to the end (None if none did),
-    the RK4 steps per sample and the friction's smoothing speed [m/s]."""
-
-    blocks: int
-    diverged: int
-    stopped: int
-    rmse_x_m: float | None
-    substeps: int
-    v0: float | None
-
-    @classmethod
-    def of(cls, summary: dict) -> FreeRunSummary:
-        """From the run's ``free_run_*`` record; a non-finite number is None (JSON has none)."""
-        return cls(**{k.removeprefix("free_run_"): _finite(v) for k, v in summary.items()})
-
-    def to_dict(self) -> dict:
-        return {f"free_run_{f.name}": getattr(self, f.name) for f in fields(self)}
-
-
-@dataclass(frozen=True)
 class SINDyExtras(FitExtras):
     """SINDy's own statistics of a fit: the threshold chosen, the terms selected, the stuck rows
-    left out, the ensemble's size, the intervals' method, the residual's τ_int [rows] and the
-    free run (None where it did not run)."""
+    left out, the ensemble's size, the intervals' method and the residual's τ_int [rows]."""
 
     threshold: float
     selected_terms: tuple[str, ...]
@@ -257,13 +197,8 @@ class SINDyExtras(FitExtras):
     ensemble_models: int
     intervals: str
     residual_tau_int_rows: float
-    free_run: FreeRunSummary | None = None
 
     def to_dict(self) -> dict:
-        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "free_run"}
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
         out["selected_terms"] = list(self.selected_terms)
-        return out | (self.free_run.to_dict() if self.free_run is not None else {})
-
-
-def _finite(value):
-    return None if isinstance(value, float) and not np.isfinite(value) else value
+        return out

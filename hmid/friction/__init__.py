@@ -11,11 +11,17 @@ free_fall``; the identified law then enters its balance with that term's sign.
 * :class:`LawCheck`: whether the falls' residuals accept the law (runs test; Coulomb + viscous
   against Coulomb), said on every run when they do not.
 * :func:`plot_free_fall` draws the fits and their residuals.
+* :func:`affine_friction`: (Fc, b) of a law whose magnitude is Fc + b |v| (the model files').
 
 ``friction(v) = sign(v) Fc (+ b v)`` is a force along +x with the sign of the motion.
 """
 
-from hmid.friction._estimate import FrictionEstimate, LoadCellCheck, LogFriction
+from hmid.friction._estimate import (
+    FrictionEstimate,
+    LoadCellCheck,
+    LogFriction,
+    affine_friction,
+)
 from hmid.friction._identify import (
     MIN_SLIDING_SAMPLES,
     derivative_reach,
@@ -37,6 +43,7 @@ __all__ = [
     "LawCheck",
     "LoadCellCheck",
     "LogFriction",
+    "affine_friction",
     "derivative_reach",
     "identify_friction",
     "plot_free_fall",

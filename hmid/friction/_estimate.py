@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from hmid.errors import ConfigError
 from hmid.friction._law import LawCheck
 from hmid.friction._models import FRICTION_CALIBRATED_TAU, FallRig, FrictionModel
 from hmid.intervals import IntervalNote
@@ -222,3 +223,17 @@ class FrictionEstimate:
             out[f"{name}{suffix} lo [{unit}]"] = ci[name][0]
             out[f"{name}{suffix} hi [{unit}]"] = ci[name][1]
         return out
+
+
+def affine_friction(friction) -> tuple[float, float]:
+    """(Fc, b) of a friction estimate whose magnitude is Fc + b |v| (Coulomb, or Coulomb +
+    viscous): the law as a model file states it, read off the estimate at three speeds."""
+    if friction is None:
+        raise ConfigError("no identified friction (free falls) to state as Fc + b |v|")
+    speeds = np.array([1e-9, 0.1, 1.0])
+    magnitude = np.asarray(friction.friction(speeds), dtype=float)
+    Fc = float(magnitude[0])
+    b = float((magnitude[2] - magnitude[0]) / (speeds[2] - speeds[0]))
+    if not np.isfinite([Fc, b]).all() or abs(Fc + b * 0.1 - magnitude[1]) > 1e-9 * (1 + abs(Fc)):
+        raise ConfigError("the friction law is not Coulomb + viscous (Fc + b |v|)")
+    return Fc, b

@@ -74,7 +74,7 @@ def known_law(friction) -> dict | None:
     """The free-fall friction law as (Fc, b): magnitude Fc + b |v| (None without one)."""
     if friction is None:
         return None
-    from hmid.models.sindy._freerun import affine_friction
+    from hmid.friction import affine_friction
 
     Fc, b = affine_friction(friction)
     return {"law": "(Fc + b |v|) sign(v)", "Fc": Fc, "b": b, "unit": "N"}

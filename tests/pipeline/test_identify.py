@@ -264,8 +264,7 @@ def test_a_worker_process_gives_the_same_numbers(workspace, monkeypatch):
     table as in one process."""
     from hmid.workers import WORKERS_VARIABLE
 
-    models = [*EXPERIMENT["models"], {"family": "sindy", "free_run": {"enabled": False}},
-              {"family": "sls"}]  # fmt: skip
+    models = [*EXPERIMENT["models"], {"family": "sindy"}, {"family": "sls"}]
     path = _config(workspace, models=models, loop={"base": "poly:cubic_xvP"})
     tables, figures = {}, {}
     for workers in ("0", "1"):

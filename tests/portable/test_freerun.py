@@ -1,12 +1,17 @@
 """The free-run integrator against known answers: a mass dragged against Coulomb friction, a
-mass-spring-damper, and a model whose balance is not an equation of motion."""
+mass-spring-damper, and a model whose balance is not an equation of motion; a run that
+diverges says when and which state left, and does not raise."""
+
+import warnings
 
 import numpy as np
+import pandas as pd
 import pytest
 
+from hmid.balance import Signals
 from hmid.portable import Model
 from hmid.portable.file import FORMAT
-from hmid.portable.freerun import NotSimulable
+from hmid.portable.freerun import NotSimulable, blocks, simulate_signals
 
 
 def _model(terms, coefficients, *, explained="u", motion=None, channels=("x", "u")):
@@ -113,3 +118,49 @@ def test_a_rig_that_imposes_its_position_has_no_free_run():
     model = _model(terms, [1e-3, 0.5, 3.0], explained="F", channels=("x", "u", "F"))
     with pytest.raises(NotSimulable, match="imposes its position"):
         model.simulate(np.linspace(0, 1, 11), {"u": np.zeros(11)}, x0=0.0)
+
+
+def _held_out(starts: dict[str, float]) -> Signals:
+    """One 2 s held-out log per name, at rest under u = 0, its measured x a 1 mm sine about the
+    given start (which the free run starts from)."""
+    t = np.linspace(0.0, 2.0, 2001)
+    frames = [
+        pd.DataFrame({"log": name, "t": t, "x": x0 + 1e-3 * np.sin(2 * np.pi * t), "u": 0.0,
+                      "v": 0.0, "explained": 0.0, "target": 0.0, "validation": True})
+        for name, x0 in starts.items()
+    ]  # fmt: skip
+    units = {"x": "m", "u": "N", "v": "m/s", "explained": "N", "target": "N"}
+    return Signals.from_frame(pd.concat(frames), units, position="x")
+
+
+def test_a_diverging_block_is_reported_with_its_time_and_state_and_the_others_run_on():
+    # u = M a + k x with k < 0: x = 0 is an unstable equilibrium, from which the block at rest
+    # never leaves; from x0 = 1 mm, x grows as cosh(sqrt(-k / M) t) (e-folding 8.7 ms) and
+    # leaves the box of the measured motion (3.5 spans about its mean) after ~20 ms
+    M, k = 0.75, -1e4
+    model = _model([MASS, SPRING], [M, k])
+    signals = _held_out({"rest": 0.0, "away": 1e-3})
+    run = simulate_signals(model, signals, blocks(signals))
+    rest, away = run.runs
+    assert (rest.log, away.log) == ("rest", "away")
+    assert rest.diverged_at is None and np.all(rest.x_simulated == 0.0)
+    exit_time = np.arccosh(1 + 3.5 * 2e-3 / 1e-3) / np.sqrt(-k / M)
+    assert away.diverged_at == pytest.approx(exit_time, abs=2e-3)
+    assert away.reason == "x left the measured range"
+    scores = run.scores()
+    assert scores["free-run blocks"] == 2 and scores["diverged"] == 1
+    assert scores["rmse x"] == pytest.approx(1e-3 / np.sqrt(2), rel=1e-3)  # the block at rest
+
+
+def test_a_run_that_overflows_is_a_divergence_without_numpy_warnings():
+    """A run that blows up is the free run's to report; numpy's 'overflow encountered' on the
+    way there is not news for the console."""
+    model = _model([MASS, SPRING], [1e-6, -1e12])  # e-folding 1 ns: inf within the first step
+    signals = _held_out({"away": 1e-3})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        run = simulate_signals(model, signals, blocks(signals))
+    (away,) = run.runs
+    assert away.diverged_at is not None and away.diverged_at < 0.01
+    assert away.reason == "x left the measured range"  # non-finite: outside any range
+    assert np.isnan(run.scores()["fit % (x)"])

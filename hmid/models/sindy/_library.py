@@ -6,13 +6,11 @@ variables (each divided by its largest absolute training value, so every monomia
 physical velocity. Monomials whose power of a variable exceeds its cap (pressure enters only
 linearly by default, as in the thesis) are dropped, and so is any column that repeats an earlier
 one exactly (by name or value), so no term is counted twice. Each kept column is a
-:class:`Feature` that knows its unit and how to evaluate itself without pysindy (for the
-free-run integrator, which calls the force map hundreds of thousands of times).
+:class:`Feature` that knows its unit and its term (the monomial that the model file states).
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -208,37 +206,3 @@ def _tanh(u: np.ndarray) -> np.ndarray:
 
 def _tanh_name(*_: str) -> str:
     return TANH_NAME
-
-
-class ForceMap:
-    """``F(x, v, P)`` for scalars from physical coefficients, without pysindy or NumPy calls.
-
-    Only the non-zero terms are kept; each is a product of precomputed powers, so one call costs a
-    few microseconds in plain Python (the free-run integrator's inner loop).
-    """
-
-    def __init__(self, features: tuple[Feature, ...], coef: np.ndarray, v0: float) -> None:
-        self.v0 = float(v0)
-        self.friction = 0.0
-        self.monomials: list[tuple[float, int, int, int]] = []
-        self.degree = 1
-        for feature, c in zip(features, np.asarray(coef, dtype=float), strict=True):
-            if c == 0.0:
-                continue
-            if feature.is_friction:
-                self.friction += float(c)
-                continue
-            i, j, k = feature.term.exponents(("x", "v", "P"))
-            self.monomials.append((float(c), i, j, k))
-            self.degree = max(self.degree, i, j, k)
-
-    def __call__(self, x: float, v: float, P: float) -> float:
-        xp, vp, pp = [1.0], [1.0], [1.0]
-        for _ in range(self.degree):
-            xp.append(xp[-1] * x)
-            vp.append(vp[-1] * v)
-            pp.append(pp[-1] * P)
-        total = self.friction * math.tanh(v / self.v0) if self.friction else 0.0
-        for c, i, j, k in self.monomials:
-            total += c * xp[i] * vp[j] * pp[k]
-        return total

@@ -53,7 +53,7 @@ from hmid.models.sindy._intervals import (
     percentile_intervals,
     support_intervals,
 )
-from hmid.models.sindy._library import Feature, ForceMap, canonical_name
+from hmid.models.sindy._library import Feature, canonical_name
 from hmid.models.sindy._select import refit, support_choice
 from hmid.models.sindy._settings import CrossValidation, Ensemble, SINDySettings
 from hmid.models.sindy._sparse import (
@@ -316,11 +316,6 @@ class SINDyForceModel(ForceModel):
         return self.library_.transform(X) @ scaled
 
     # -- results ---------------------------------------------------------------------------------
-    def force_map(self) -> ForceMap:
-        """The fitted F(x, v, P) as a fast scalar function (for integration)."""
-        self._check_fitted()
-        return ForceMap(self.features_, self.coef_, self.v0)
-
     @property
     def selected(self) -> tuple[str, ...]:
         """Names of the terms with a non-zero coefficient."""

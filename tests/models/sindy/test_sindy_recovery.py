@@ -73,14 +73,6 @@ def test_units_and_equation_are_physical(truth_fits):
     assert equation.startswith("F_m = ") and "[N/m]·x" in equation and "[N/m³]·x³" in equation
 
 
-def test_fast_force_map_matches_the_library(truth_fits, truth):
-    model = truth_fits[1]
-    rows = truth.iloc[::997]
-    force = model.force_map()
-    fast = [force(x, v, P) for x, v, P in rows[["x", "v", "P"]].to_numpy()]
-    np.testing.assert_allclose(fast, model.predict(rows), rtol=1e-10, atol=1e-10)
-
-
 def test_library_has_each_term_once(truth_fits):
     names = [f.name for f in truth_fits[0].features_]
     assert len(names) == len(set(names)) == 17  # 16 monomials (P linear, degree 3) + tanh(v/v0)
