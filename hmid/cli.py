@@ -11,7 +11,7 @@ import threading
 import warnings
 from pathlib import Path
 
-from hmid.errors import HmidError, HmidWarning
+from hmid.errors import ConfigError, HmidError, HmidWarning
 
 _DESCRIPTION = """\
 hmid: system identification of soft fluidic actuators (the Hydro Muscle).
@@ -57,6 +57,8 @@ def _run(args: argparse.Namespace) -> int:
 
     if Path(args.results).is_file():  # said before anything is made beside it
         raise NotADirectoryError(20, "Not a directory", str(args.results))
+    for what, path in (("--results", args.results), ("config", args.config)):
+        _utf8(what, Path(path).resolve())  # refused now, not after the work
     use_compilation_cache(Path(args.results) / ".jax-cache")  # before a worker starts
     os.environ.setdefault(UNIT_CACHE_VARIABLE, str(Path(args.results) / ".unit-cache"))
     allow_workers()  # this program's main module is guarded: a spawned worker may import it
@@ -72,6 +74,18 @@ def _run(args: argparse.Namespace) -> int:
     print(console_summary(metrics))
     print(f"report: {run_dir / 'report.html'}")
     return 0
+
+
+def _utf8(what: str, path: Path) -> None:
+    """A ConfigError if ``path`` cannot be written as UTF-8 (a name in another encoding): the
+    run folder's manifest, report and links are UTF-8 text."""
+    try:
+        str(path).encode("utf-8")
+    except UnicodeEncodeError:
+        shown = os.fsencode(path).decode("utf-8", "backslashreplace")
+        raise ConfigError(
+            f"{what} {shown}: the path is not valid UTF-8; rename it or choose another folder"
+        ) from None
 
 
 def console_summary(metrics: dict) -> str:

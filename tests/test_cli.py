@@ -2,6 +2,7 @@
 
 import errno
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -153,6 +154,16 @@ def test_results_that_is_a_file_is_one_line_and_exit_2(tmp_path, capsys):
     assert main(["summary", str(_demo_copy(tmp_path)), "--results", str(blocker)]) == 2
     line = _one_line(capsys.readouterr().err)
     assert str(blocker) in line and "--results must name a folder" in line
+
+
+def test_a_path_that_is_not_utf8_is_refused_before_the_work(tmp_path, capsys, monkeypatch):
+    import pipelines.identify
+
+    monkeypatch.setattr(pipelines.identify, "run", lambda *a, **k: pytest.fail("work started"))
+    results = Path(os.fsdecode(bytes(tmp_path) + b"/r\xe9sultats"))  # Latin-1, not UTF-8
+    assert main(["run", str(_demo_copy(tmp_path)), "--results", str(results)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert "not valid UTF-8" in line and "r\\xe9sultats" in line
 
 
 def test_a_results_root_that_is_not_writable_is_one_line(tmp_path, capsys, monkeypatch):
