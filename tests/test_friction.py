@@ -2,6 +2,7 @@
 errors that name the log. (How the friction enters a balance: tests/balance/test_prepare.py.)"""
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -216,6 +217,14 @@ def test_estimate_serialises_tabulates_and_plots(demo_falls, tmp_path):
     assert {"Fc [N]", "Fc lo [N]", "Fc hi [N]", "Fc (load cell) [N]", "R2"} <= set(table.columns)
     path = plot_free_fall(logs, est, tmp_path / "free_fall.png")
     assert path.stat().st_size > 10_000
+
+
+def test_a_cached_estimate_plots_logs_read_from_another_working_folder(demo_falls, tmp_path):
+    # issue 31: a run from another folder reads the same files by another relative path
+    logs = [s.log for s in demo_falls]
+    est = identify_friction(logs, RIG, Coulomb(), differentiator=DIFF)
+    moved = [replace(log, source=f"../elsewhere/{log.source}") for log in logs]
+    assert plot_free_fall(moved, est, tmp_path / "free_fall.png").stat().st_size > 10_000
 
 
 def test_each_row_says_what_its_intervals_are_and_whether_they_are_calibrated(demo_falls):

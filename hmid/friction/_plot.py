@@ -20,15 +20,16 @@ def plot_free_fall(
     """
     from matplotlib.figure import Figure  # object-oriented: no global backend switch
 
-    fits = {r.source: r for r in estimate.per_log}
+    # by file name: a cached estimate may have read the same files from another working folder
+    fits = {Path(r.source).name: r for r in estimate.per_log}
     fig = Figure(figsize=(7, 6))
     # fixed margins: the same two panels for every rig (a tight layout was half the cost)
     fig.subplots_adjust(left=0.12, right=0.97, bottom=0.09, top=0.94, hspace=0.08)
     ax_x, ax_r = fig.subplots(2, 1, sharex=True, height_ratios=(2, 1))
     for k, log in enumerate(logs):
-        if log.source not in fits:
+        if Path(log.source).name not in fits:
             raise LogError(f"{log.source}: not among the logs this friction estimate was fitted to")
-        r = fits[log.source]
+        r = fits[Path(log.source).name]
         t, x = log.t, log[position]
         seg = (t >= r.t_start) & (t <= r.t_end)
         tau = t[seg] - r.t_ref
