@@ -12,7 +12,7 @@ from hmid.config import load_yaml_model
 from hmid.families import FitContext, FitData
 from hmid.families.polynomial import PolynomialSpec
 from hmid.pipeline.fits import Fits, diverged, fit_or_fail
-from hmid.simulate.dataset import DatasetConfig
+from hmid.simulate.rigs.hydro_muscle_dataset import HydroMuscleDataset
 from hmid.simulate.write import write_dataset
 from pipelines.identify import run
 
@@ -21,7 +21,7 @@ from pipelines.identify import run
 def workspace(tmp_path_factory):
     root = tmp_path_factory.mktemp("failures")
     (root / "set.yaml").write_text(DATASET)
-    write_dataset(load_yaml_model(root / "set.yaml", DatasetConfig), root / "data")
+    write_dataset(load_yaml_model(root / "set.yaml", HydroMuscleDataset), root / "data")
     return root
 
 
