@@ -192,7 +192,7 @@ class FreeRunResult:
 @dataclass(frozen=True)
 class _Run:
     x: np.ndarray
-    v: np.ndarray
+    v: np.ndarray | None  # None for a block never started
     status: str
     failed_at: float | None
     reason: str
