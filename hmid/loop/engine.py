@@ -57,7 +57,7 @@ def with_elastic(signals: Signals, current: StructureFit, position: str | None) 
     elastic = [p for p in current.structure.terms if set(p.term.reads) == {position}]
 
     def force(seen: Signals) -> np.ndarray:
-        names = set()
+        names: set[str] = set()
         for placed in elastic:
             names.update(placed.term.columns(seen, placed.value).names)
         columns = current.structure.columns(seen)
@@ -98,7 +98,8 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed) -
     signals = with_elastic(signals, current, setting.position)
     has_elastic = bool(np.any(signals[ELASTIC])) if ELASTIC in signals else False
     remaining = [c for c in candidates if has_elastic or not c.elastic]
-    decisions, effects, steps = [], [], []
+    decisions: list[Decision] = []
+    effects, steps = [], []
     part = "setting up"  # what the clock's next lap timed
     for round_no in range(1, spec.max_effects + 1):
         if round_no > 1:  # the model changed: its elastic force with it

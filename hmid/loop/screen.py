@@ -66,7 +66,7 @@ class Screen:
     def profiled(self) -> str:
         """Its profiled parameter with interval, and whether the grid's edge holds it."""
         hyper = self.candidate.hyper
-        if hyper is None:
+        if hyper is None or self.interval is None:  # an interval wherever there is a hyper
             return ""
         low, high = self.interval
         edge = " (grid edge)" if self.on_edge else ""
@@ -150,7 +150,7 @@ def along(current: StructureFit, candidate: Candidate, signals: Signals) -> dict
     return fits
 
 
-def _moved(start: StructureFit, index: int, value: float, signals: Signals) -> StructureFit:
+def _moved(start: StructureFit, index: int, value: float | None, signals: Signals) -> StructureFit:
     """The joint fit with the candidate at ``value``, the model's parameters walked from
     ``start``'s (the ridge followed)."""
     trial = fit_structure(start.structure.at(index, value), signals)

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from hmid.balance import Signals
+from hmid.balance import RigSection, Signals
 from hmid.denoise import Piece, denoise_log, pieces
 from hmid.errors import ConfigError, HmidWarning, LogError
 from hmid.experiment import ExperimentConfig, log_units
@@ -53,7 +53,7 @@ def load(config: ExperimentConfig) -> dict[str, LoadedLog]:
             log = read_log(path, load_column_map(config.resolve(entry.columns)))
         flipped = {c: -log[c] for c in flips if c in log}
         if flipped:
-            log = log.with_channels(**flipped)
+            log = log.with_channels(None, **flipped)
         out[name] = LoadedLog(name, entry.role, log)
     return out
 
@@ -87,7 +87,7 @@ def denoise(config: ExperimentConfig, load: dict[str, LoadedLog]) -> dict[str, D
         kept, records = pieces(
             item.log, name, config.denoise.split_gaps_s, 3 * config.denoise.longest_window_s
         )
-        channels = rig.log_channels if item.role == "dynamic" else (rig.position,)
+        channels = rig.log_channels if item.role == "dynamic" else (_position(rig),)
         denoised = tuple(
             denoise_log(part, smoother, differentiator, channels=channels, position=rig.position)
             for part in kept
@@ -129,6 +129,7 @@ def friction(config: ExperimentConfig, denoise: dict[str, Denoised]):
     free_fall = [p for item in denoise.values() if item.role == "free_fall" for p in item.pieces]
     model = {"coulomb": Coulomb, "coulomb_viscous": CoulombViscous}[config.friction.model]()
     rig = config.rig
+    assert rig.free_fall is not None  # the rig requires it for a term from: free_fall
     return identify_friction(
         free_fall,
         FallRig(rig.free_fall.mass, rig.free_fall.drive),
@@ -136,7 +137,7 @@ def friction(config: ExperimentConfig, denoise: dict[str, Denoised]):
         differentiator=config.denoise.build()[1],
         v_min=config.friction.v_min,
         confidence=config.friction.confidence,
-        position=rig.position,
+        position=_position(rig),
         friction_sign=rig.from_free_fall[0].sign,
         explained=rig.explained.channels[0] if len(rig.explained.parts) == 1 else None,
     )
@@ -180,7 +181,8 @@ class Split:
 
 def split(config: ExperimentConfig, signals: Signals) -> Split:
     """Training and held-out rows, the same for every family."""
-    log, lengths = signals.frame["log"], {}
+    log = signals.frame["log"]
+    lengths: dict[str, int] = {}
     for start, stop in signals.bounds():  # a segment is a piece of one log; logs in order
         lengths[log.iat[start]] = lengths.get(log.iat[start], 0) + stop - start
     masks = validation_masks(lengths, config.split)
@@ -291,7 +293,8 @@ def freerun(config: ExperimentConfig, split: Split, fit: list[Fitted], export: d
             out[name] = FreeRun(name, (), document)
             continue
         fitted = next(m for m in fit if m.name == name)
-        draws = fitted.model.posterior_draws() if _draws(fitted) else None
+        posterior_draws = _draws(fitted)
+        draws = posterior_draws() if posterior_draws else None
         model = Model(document, draws=draws)
         out[name] = simulate_signals(model, split.signals, spans, draws=FREE_RUN_DRAWS,
                                      level=FREE_RUN_LEVEL, seed=config.seed)  # fmt: skip
@@ -305,6 +308,13 @@ FREE_RUN_DRAWS, FREE_RUN_LEVEL = 100, 0.9
 def file_stem(model_name: str) -> str:
     """A model's name as a file name (``poly:cubic_xv`` -> ``poly_cubic_xv``)."""
     return model_name.replace(":", "_")
+
+
+def _position(rig: RigSection) -> str:
+    """The rig's position channel, which free-fall logs and friction need."""
+    if rig.position is None:
+        raise ConfigError("rig: free-fall logs need the rig's position channel")
+    return rig.position
 
 
 def _draws(model: Fitted):
