@@ -16,14 +16,16 @@ $(STAMP): pyproject.toml constraints.txt
 demo: $(STAMP)
 	$(BIN)/hmid run configs/demo.yaml
 
-## test: set up .venv, lint, and run the test suite
+## test: set up .venv, lint, type-check, and run the test suite
 test: $(STAMP)
 	$(BIN)/ruff check hmid tests benchmarks pipelines
+	$(BIN)/mypy
 	$(BIN)/python -m pytest -q
 
 lint: $(STAMP)
 	$(BIN)/ruff check hmid tests benchmarks pipelines
 	$(BIN)/ruff format --check hmid tests benchmarks pipelines
+	$(BIN)/mypy
 
 ## demo-data: regenerate data/demo/ from configs/simulate/demo.yaml (fixed seeds)
 demo-data: $(STAMP)

@@ -8,6 +8,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from pydantic import BaseModel, ValidationError
+from pydantic_core import ErrorDetails
 
 _PREFIXES = ("Value error, ", "Assertion failed, ")
 
@@ -20,7 +21,7 @@ def format_validation_error(
     ``model`` (the class that was validated) lets the message list the allowed keys after an
     unknown one and drop pydantic's union-member tags ('str', 'int') from key paths.
     """
-    problems: dict[tuple[Any, ...], tuple[dict[str, Any], Any]] = {}
+    problems: dict[tuple[Any, ...], tuple[ErrorDetails, Any]] = {}
     # an unknown key is most often a misspelt one: report it before the "missing" it causes
     ordered = sorted(err.errors(include_url=False), key=lambda e: e["type"] != "extra_forbidden")
     for error in ordered:

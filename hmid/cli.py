@@ -350,7 +350,7 @@ def _stop(signum: int, frame) -> None:
     raise _Stopped(signum)
 
 
-def _stopped_by(err: BaseException) -> _Stopped | None:
+def _stopped_by(err: BaseException | None) -> _Stopped | None:
     """The signal behind ``err``: itself, or one that a library turned into another error on
     its way out (e.g. an interrupted write said as an OSError)."""
     while err is not None:
@@ -398,7 +398,7 @@ def environment_message(err: OSError, args: argparse.Namespace) -> str:
     path = err.filename or getattr(args, "results", None) or "?"
     what = err.strerror or type(err).__name__
     results = getattr(args, "results", "results")
-    fixes = {
+    fixes: dict[int | None, str] = {
         errno.EACCES: f"make it writable or choose another folder with --results (now {results})",
         errno.EPERM: f"make it writable or choose another folder with --results (now {results})",
         errno.EROFS: "the file system is read-only: choose another folder with --results",

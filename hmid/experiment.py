@@ -186,7 +186,7 @@ class ExperimentConfig(_Frozen):
             )
         if not self.logs_with_role("dynamic"):
             raise ValueError("no log has role dynamic: there is nothing to identify")
-        names: list[str] = []
+        names = []
         for i, spec in enumerate(self.models):
             try:
                 spec.check(self.rig)

@@ -85,7 +85,7 @@ class Manifest:
     seed: int
     inputs: dict[str, str] = field(default_factory=dict)
     stages: dict[str, float] = field(default_factory=dict)
-    cache: dict[str, bool] = field(default_factory=dict)  # stage -> read from the cache
+    cache: dict[str, bool | None] = field(default_factory=dict)  # stage -> read from the cache
     reused: dict[str, str] = field(default_factory=dict)  # model -> stored work it read back
     started: str = field(default_factory=_now)
     status: str = "running"

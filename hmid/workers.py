@@ -194,6 +194,7 @@ def _call(fn: Callable[..., Any], args: tuple) -> _Done:
 
 
 def _value(task: _Task) -> Any:
+    assert task.future is not None  # results() has run or handed out every task
     found = task.future.result()
     if not task.there:
         return found
@@ -254,6 +255,7 @@ class Tasks:
                 break
             held.future = _finished(held.here())
         for task in reversed(tasks):
+            assert task.future is not None  # the loop above ran every task held back
             if task.future.cancel():
                 task.future, task.there = _finished(task.here()), False
         out = []

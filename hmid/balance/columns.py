@@ -243,13 +243,13 @@ class LeastSquares:
                     block = block[np.ix_(keep_i, keep_j)]
                 gram[offsets[i] : offsets[i + 1], offsets[j] : offsets[j + 1]] = block
                 gram[offsets[j] : offsets[j + 1], offsets[i] : offsets[i + 1]] = block.T
-        moment = []
+        moments = []
         for key, c, keep in plan.parts:
             m = memo.get(("moment", key, y_key, rows_key))
             if m is None:
                 m = memo[("moment", key, y_key, rows_key)] = on_rows(key, c).T @ y_rows
-            moment.append(m[list(keep)])
-        moment = np.concatenate(moment)
+            moments.append(m[list(keep)])
+        moment = np.concatenate(moments)
         scale = np.sqrt(np.diag(gram)).copy()
         scale[scale == 0] = 1.0
         gram_s, moment_s = gram / np.outer(scale, scale), moment / scale

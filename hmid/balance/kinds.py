@@ -108,7 +108,7 @@ class TermSpec(_Frozen, Term):
     @classmethod
     def example(cls) -> TermSpec:
         """A valid instance on channels x and P (for contract tests and documentation)."""
-        return cls(name="c")
+        return cls.model_validate({"name": "c"})  # a subclass: its kind has a default
 
     def label(self) -> str:
         return self.description or self.name

@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import hashlib
 from collections import OrderedDict
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from hmid.balance.signals import Signals
 from hmid.balance.terms import Hyper
+
+if TYPE_CHECKING:
+    import jax
 
 _ARMS: OrderedDict[tuple, dict] = OrderedDict()  # per (signals, channel): tau -> row
 _ARMS_KEPT = 8
@@ -61,7 +65,7 @@ def declare_sum(signals: Signals, channel: str, parts) -> None:
     signals.cache[("sum of", channel)] = tuple(parts)
 
 
-def _arrays(signals: Signals, channel: str, table: dict) -> tuple:
+def _arrays(signals: Signals, channel: str, table: dict) -> tuple[jax.Array, jax.Array, jax.Array]:
     """t, the channel and the segments' first rows as float64 JAX arrays, converted once and
     kept in ``table``."""
     arrays = table.get("arrays")

@@ -19,6 +19,7 @@ from collections.abc import Callable, Mapping
 import numpy as np
 import pandas as pd
 
+from hmid.balance.kinds import CoulombTerm
 from hmid.balance.rig import RigSection
 from hmid.balance.signals import Signals, raw
 from hmid.errors import ConfigError
@@ -134,11 +135,15 @@ def prepare(
         explained += values
     known = np.zeros(len(signals))
     for term in rig.known:
-        if getattr(term, "source", None) == "free_fall":
+        if isinstance(term, CoulombTerm) and term.source == "free_fall":
             if free_fall_law is None:
                 raise ConfigError(f"rig.balance: term {term.name!r} needs the free-fall friction")
             v = signals[raw(term.channel)]
-            law = signals.smooth_of(lambda rows, v=v: free_fall_law(v[rows]))
+
+            def law_on(rows: slice, v: np.ndarray = v) -> np.ndarray:
+                return free_fall_law(v[rows])
+
+            law = signals.smooth_of(law_on)
             law *= term.sign
             known += law
             del law

@@ -296,6 +296,8 @@ class RigSection(_Frozen):
 
         parts = tuple((units[c], float(p)) for c, p in sorted(term.powers().items()))
         si = implied_unit(units["target"], parts)
+        if term.value is None:
+            raise ConfigError(f"rig.balance: term {term.name!r} has no known value")
         return _to_si(float(term.value), term.unit or si, si, None, term.name)
 
     def check_units(self, units: Mapping[str, str], source: str) -> None:

@@ -25,12 +25,18 @@ from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 import pandas as pd
 
 from hmid.errors import ConfigError
 from hmid.signal.blocks import local_smoother, smoothed_by_blocks, smoothed_span
+
+if TYPE_CHECKING:
+    from hmid.signal import Smoother
+
+_T = TypeVar("_T")
 
 REQUIRED = ("log", "segment", "t", "target", "usable", "train", "validation")
 
@@ -72,7 +78,7 @@ class Signals:
     units: Mapping[str, str]
     channels: tuple[str, ...]
     position: str | None = None
-    smoother: object | None = None  # hmid.signal.Smoother
+    smoother: Smoother | None = None
     # columns and transformed signals computed from these rows (a new set starts empty)
     cache: dict = field(default_factory=dict, compare=False, repr=False)
     # each column's version: a derived set shares the versions of the columns it keeps
@@ -126,20 +132,27 @@ class Signals:
         versions = {c: next(_VERSIONS) for c in self.frame.columns}
         object.__setattr__(self, "versions", MappingProxyType(versions))
 
+    @property
+    def _versions(self) -> Mapping[str, int]:
+        """:attr:`versions`, which ``__post_init__`` sets where none is given."""
+        assert self.versions is not None
+        return self.versions
+
     def __len__(self) -> int:
         return len(self.frame)
 
     def __getitem__(self, column: str) -> np.ndarray:
-        if column in self.versions:
-            _noted(((column, self.versions[column]),))
+        versions = self._versions
+        if column in versions:
+            _noted(((column, versions[column]),))
         # pandas' column lookup costs ~0.2 ms on an index of strings; profiling reads thousands
         found = self.cache.get(("array", column))
         if found is None:
             found = self.cache[("array", column)] = self.frame[column].to_numpy()
         return found
 
-    def __contains__(self, column: object) -> bool:
-        _noted(((column, self.versions.get(column)),))
+    def __contains__(self, column: str) -> bool:
+        _noted(((column, self._versions.get(column)),))
         return column in self.frame.columns
 
     @property
@@ -164,7 +177,7 @@ class Signals:
             raise ValueError(f"role must be 'train' or 'validation', got {role!r}")
         return self[role]
 
-    def derived(self, key: object, compute: Callable[[], object]) -> object:
+    def derived(self, key: object, compute: Callable[[], _T]) -> _T:
         """``compute()``, once per signals and ``key`` (kept in :attr:`cache`); what it read is
         noted again on every reuse, so a recording around the caller sees it."""
         found = self.cache.get(key)
@@ -192,7 +205,7 @@ class Signals:
 
     def reads_same(self, deps) -> bool:
         """Whether every (column, version) of ``deps`` (from :func:`recording`) holds here."""
-        return all(self.versions.get(column) == version for column, version in deps)
+        return all(self._versions.get(column) == version for column, version in deps)
 
     def segments(self) -> Iterator[np.ndarray]:
         """Row indices of each segment, in order (made as they are read: a long log's are not
@@ -226,12 +239,13 @@ class Signals:
         """``values`` through the experiment's zero-phase smoother, segment by segment: a term
         that is not linear in the signals (sign(v), a product) is evaluated first and smoothed
         after, exactly as the measured force that contains it was."""
-        if self.smoother is None:
+        smoother = self.smoother
+        if smoother is None:
             return np.asarray(values, dtype=float)
 
         def bound() -> list:  # the smoother on each segment's time base, checked once
             t = self["t"]
-            return [(slice(*b), self.smoother.on(t[slice(*b)])) for b in self.bounds()]
+            return [(slice(*b), smoother.on(t[slice(*b)])) for b in self.bounds()]
 
         out = np.empty(len(self))
         for rows, smooth in self.derived(("smoothers",), bound):
@@ -285,7 +299,7 @@ class Signals:
 
     # -- derived sets -------------------------------------------------------------------------
     def with_columns(self, **columns: np.ndarray) -> Signals:
-        versions = {**self.versions, **{c: next(_VERSIONS) for c in columns}}
+        versions = {**self._versions, **{c: next(_VERSIONS) for c in columns}}
         # taken as they are, not copied (pandas copies a bare array): a long log's new columns
         # are held once; the caller lets go of them (the frame's columns are read-only)
         index = self.frame.index
@@ -317,7 +331,7 @@ class Signals:
         order."""
         keep = self.rows(role)
         names = ["log", "t", *columns] if keys else list(columns)
-        _noted(tuple((c, self.versions.get(c)) for c in names))
+        _noted(tuple((c, self._versions.get(c)) for c in names))
         return self.frame.loc[keep, names].reset_index(drop=True)
 
 

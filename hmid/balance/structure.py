@@ -19,7 +19,7 @@ import pandas as pd
 from hmid.balance.columns import Columns, LeastSquares, Plan, plan
 from hmid.balance.inference import inference
 from hmid.balance.signals import Signals, recording
-from hmid.balance.terms import Term
+from hmid.balance.terms import Hyper, Term
 from hmid.metrics import Scores, score
 
 
@@ -60,6 +60,14 @@ class Structure:
         """Indices of the terms that have a hyperparameter (profiled)."""
         return [i for i, p in enumerate(self.terms) if p.term.hyper is not None]
 
+    def profiled(self, index: int) -> tuple[Hyper, float]:
+        """Term ``index``'s hyperparameter and its value (``index`` one of :attr:`hypers`)."""
+        placed = self.terms[index]
+        hyper = placed.term.hyper
+        if hyper is None or placed.value is None:
+            raise ValueError(f"term {index} ({placed.term.name}) has no hyperparameter value")
+        return hyper, placed.value
+
     @property
     def margins(self) -> tuple[float, float]:
         starts = [p.term.margins[0] for p in self.terms]
@@ -92,7 +100,7 @@ class Structure:
 _KEYS = itertools.count()
 
 
-def _term_columns(store: dict, seen: Signals, placed: Placed) -> tuple[tuple, Columns]:
+def _term_columns(store: dict, seen: Signals, placed: Placed) -> tuple[int, Columns]:
     """A term's columns on ``seen``, and their key in ``store``: computed once for every set of
     the columns they read (a sensor effect on P changes neither the columns nor the Gram blocks
     of the terms that read only x)."""
@@ -163,8 +171,8 @@ def scan(
 ) -> tuple[StructureFit, list]:
     """Every ``step``-th grid value (and the last) of term ``index``'s hyperparameter, the
     others fixed: the best fit and all of them (in grid order)."""
-    grid = best.structure.terms[index].term.hyper.grid
-    grid = tuple(dict.fromkeys((*grid[::step], grid[-1])))
+    full = best.structure.profiled(index)[0].grid
+    grid = tuple(dict.fromkeys((*full[::step], full[-1])))
     fits = [fit_structure(best.structure.at(index, g), signals, rows) for g in grid]
     found = min(fits, key=lambda f: f.sse)
     return (found if found.sse < best.sse else best), fits
@@ -173,9 +181,8 @@ def scan(
 def descend(best: StructureFit, index: int, signals: Signals, rows=None) -> StructureFit:
     """Term ``index``'s hyperparameter near its current value: walk the grid while the SSE
     falls (from the nearest grid value, first down then up); never worse than ``best``."""
-    hyper = best.structure.terms[index].term.hyper
+    hyper, current = best.structure.profiled(index)
     grid = np.asarray(hyper.grid)
-    current = best.structure.terms[index].value
     distance = np.abs(np.log(grid / current)) if hyper.log else np.abs(grid - current)
     start = int(np.argmin(distance))
     if grid[start] != current:
@@ -204,11 +211,10 @@ def refine(best: StructureFit, signals: Signals, rows=None, *, fixed=()) -> Stru
     from scipy.optimize import minimize_scalar
 
     for index in best.structure.hypers:
-        hyper = best.structure.terms[index].term.hyper
+        hyper, value = best.structure.profiled(index)
         if len(hyper.grid) < 2 or index in fixed:
             continue
         grid = np.asarray(hyper.grid)
-        value = best.structure.terms[index].value
         i = int(np.argmin(np.abs(grid - value)))
         low, high = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
         forward, back = (np.log, np.exp) if hyper.log else (float, float)
@@ -248,20 +254,19 @@ def profile(
 def _sensitivity(fitted: StructureFit, index: int, signals: Signals) -> np.ndarray | None:
     """d(prediction)/d(hyper) of term ``index`` with the coefficients held fixed (per unit of
     its logarithm for log grids): a Gauss-Newton column for the joint covariance."""
-    placed = fitted.structure.terms[index]
-    hyper = placed.term.hyper
+    hyper, value = fitted.structure.profiled(index)
     grid = np.asarray(hyper.grid)
     if hyper.log:
         h = 1e-3
-        centre = float(np.clip(np.log(placed.value), np.log(grid[0]) + h, np.log(grid[-1]) - h))
+        centre = float(np.clip(np.log(value), np.log(grid[0]) + h, np.log(grid[-1]) - h))
         values = (np.exp(centre + h), np.exp(centre - h))
     else:
         h = 1e-3 * float(grid[-1] - grid[0])
-        centre = float(np.clip(placed.value, grid[0] + h, grid[-1] - h))
+        centre = float(np.clip(value, grid[0] + h, grid[-1] - h))
         values = (centre + h, centre - h)
     predictions = []
-    for value in values:
-        columns = fitted.structure.at(index, value).columns(signals)
+    for shifted in values:
+        columns = fitted.structure.at(index, shifted).columns(signals)
         if columns.names != fitted.columns.names:
             return None
         predictions.append(columns.values @ fitted.fit.coef)
@@ -275,8 +280,8 @@ def parameters(fitted: StructureFit, signals: Signals, confidence: float) -> pd.
     parameters that trade off against them get honest intervals. Columns: parameter, value,
     std. error, lower, upper, unit, positive."""
     indices = fitted.structure.hypers
-    extras = {i: _sensitivity(fitted, i, signals) for i in indices}
-    extras = {i: e for i, e in extras.items() if e is not None}
+    found = {i: _sensitivity(fitted, i, signals) for i in indices}
+    extras = {i: e for i, e in found.items() if e is not None}
     columns = fitted.columns
     if extras:
         names = tuple(f"sensitivity {i}" for i in extras)
@@ -293,15 +298,14 @@ def parameters(fitted: StructureFit, signals: Signals, confidence: float) -> pd.
     table["value"], table["lower"], table["upper"] = value, value - half, value + half
     table["positive"] = [*fitted.columns.positive, *([False] * len(extras))]
     for row, index in zip(range(width, width + len(extras)), extras, strict=True):
-        placed = fitted.structure.terms[index]
-        hyper = placed.term.hyper
+        hyper, at = fitted.structure.profiled(index)
         table.loc[row, ["parameter", "unit"]] = [hyper.name, hyper.unit]
         if hyper.log:
-            log_value = np.log(placed.value)
-            table.loc[row, "std. error"] *= placed.value  # delta method, for reference
+            log_value = np.log(at)
+            table.loc[row, "std. error"] *= at  # delta method, for reference
             with np.errstate(over="ignore"):  # an unidentified parameter: an unbounded interval
                 bounds = np.exp([log_value, log_value - half[row], log_value + half[row]])
         else:
-            bounds = [placed.value, placed.value - half[row], placed.value + half[row]]
+            bounds = np.array([at, at - half[row], at + half[row]])
         table.loc[row, ["value", "lower", "upper"]] = bounds
     return table.reset_index(drop=True)

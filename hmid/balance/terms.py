@@ -23,7 +23,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
@@ -70,9 +70,12 @@ class Term(ABC):
     """
 
     # ``name`` (the parameter or effect), ``title`` and ``physics`` (for reports) are set by
-    # subclasses, as fields or class attributes
-    title: ClassVar[str] = ""
-    physics: ClassVar[str] = ""
+    # subclasses, as fields, class or instance attributes; none is annotated here at run time,
+    # where pydantic would take it for a field of TermSpec (and put it first)
+    if TYPE_CHECKING:
+        name: str
+    title = ""
+    physics = ""
     #: whether the term refines earlier ones: their columns that its own span are dropped
     refines: ClassVar[bool] = False
 

@@ -112,8 +112,9 @@ class SLSFitted(FittedModel):
         if self.method != "exact" and not r.converged:
             notes.append("the chain did not reach 50 autocorrelation times: intervals are rough")
         notes += self._unsettled_signs()
-        if r.reused_steps:
-            notes.append(self.reused())
+        said = self.reused()  # None unless the chain was read back
+        if said is not None:
+            notes.append(said)
         return (*notes, *self.start_notes)
 
     def interval_note(self) -> IntervalNote:

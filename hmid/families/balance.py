@@ -63,6 +63,8 @@ class BalanceSpec(FamilySpec):
         one arm) as its terms."""
         if rig.slot is None:
             return cls()
+        if rig.position is None:
+            raise ValueError("a model slot's standard linear solid needs the rig's position")
         from hmid.models.sls.terms import SLSForce
 
         return cls(slot=SLSForce("linear", 1).terms(position=rig.position, pressure="P"))
@@ -151,6 +153,7 @@ def _equation(data: FitData, structure: Structure, table: pd.DataFrame) -> str:
     parts = []
     for placed in structure.terms:
         term = placed.term
+        assert isinstance(term, TermSpec)  # the family's own terms, not the loop's candidates
         row = values.loc[term.name] if term.name in values.index else None
         if row is None:
             continue

@@ -197,7 +197,7 @@ class FitSummary(FitStatistics):
 
     @classmethod
     def of_fit(cls, family: str, name: str, y: np.ndarray, y_hat: np.ndarray, n_params: int,
-               **more) -> FitSummary:  # fmt: skip
+               **more: Any) -> FitSummary:  # fmt: skip
         """From the training target ``y`` and its fit ``y_hat`` (R², RMSE, AIC, BIC by
         :func:`hmid.models.base.fit_statistics`), with ``more`` fields (``tau_int``, ...)."""
         from hmid.models.base import fit_statistics
@@ -270,7 +270,7 @@ class FamilySpec(BaseModel):
     @classmethod
     def example(cls, rig: RigSection) -> FamilySpec:
         """A cheap, valid instance for ``rig`` (for contract tests and documentation)."""
-        return cls()
+        return cls.model_validate({})  # a subclass: its family has a default
 
     def model_names(self) -> list[str]:
         """Names of the models this entry fits (checked for clashes at load): by default one,

@@ -7,18 +7,22 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import partial
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from hmid.balance import RigSection, Structure
 from hmid.balance.checks import declared_positive
-from hmid.balance.kinds import ChannelTerm, ConstantTerm, channel_product
+from hmid.balance.kinds import ChannelTerm, ConstantTerm, TermSpec, channel_product
 from hmid.balance.signals import raw
 from hmid.families.base import FamilySpec, FitContext, FitData, FitSummary, Fitted, FittedModel
 
-THESIS_VARIANTS = ("quadratic_xv", "cubic_xv", "quadratic_xvP", "cubic_xvP")
+if TYPE_CHECKING:
+    from hmid.models.polynomial import PolynomialModel
+
+Variant = Literal["quadratic_xv", "cubic_xv", "quadratic_xvP", "cubic_xvP"]
+THESIS_VARIANTS: tuple[Variant, ...] = ("quadratic_xv", "cubic_xv", "quadratic_xvP", "cubic_xvP")
 Variable = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$")]
 
 
@@ -45,9 +49,7 @@ class PolynomialSpec(FamilySpec):
     every one fitted by OLS on the same training rows, intervals by the ``errors`` method."""
 
     family: Literal["polynomial"] = "polynomial"
-    variants: tuple[Literal["quadratic_xv", "cubic_xv", "quadratic_xvP", "cubic_xvP"], ...] = (
-        THESIS_VARIANTS
-    )
+    variants: tuple[Variant, ...] = THESIS_VARIANTS
     custom: tuple[CustomTerms, ...] = ()
     confidence: Annotated[float, Field(gt=0.5, lt=1)] = 0.95
     scale: bool = True
@@ -126,7 +128,7 @@ class PolynomialSpec(FamilySpec):
 class FittedPolynomial(FittedModel):
     """An OLS polynomial of the slot force (``sign`` is the slot's sign in the balance)."""
 
-    model: object  # hmid.models.polynomial.PolynomialModel, fitted
+    model: PolynomialModel  # fitted
     variables: tuple[str, ...]
     sign: int
 
@@ -142,7 +144,7 @@ class FittedPolynomial(FittedModel):
         return self.model.cov_
 
     def structure(self) -> Structure:
-        terms = []
+        terms: list[TermSpec] = []
         for k, term in enumerate(self.model.term_set):
             name = f"C{k}"
             if term.powers:

@@ -106,6 +106,7 @@ class SLSSpec(FamilySpec):
         """The SLS as balance terms (sign of the slot built in), tau profiled on a grid."""
         from hmid.models.sls.terms import TAU_GRID, SLSForce
 
+        assert rig.position is not None and rig.slot is not None  # as check() requires
         terms = SLSForce(self.spring, self.arms).terms(
             position=rig.position, pressure=self.pressure, sign=rig.slot.sign,
             warmup_s=self.memory_warmup_s,
@@ -121,6 +122,7 @@ class SLSSpec(FamilySpec):
         from hmid.balance.signals import raw
 
         signals, rig = data.signals, data.rig
+        assert rig.position is not None  # as check() requires
         frame = signals.frame
         rows, target = signals.rows(role), data.slot_sign * signals.target
         unsmoothed = raw(rig.position) if raw(rig.position) in frame else rig.position

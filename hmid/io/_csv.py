@@ -94,7 +94,7 @@ def _honour_excel_sep_line(data: bytes, columns: ColumnMap, source: str) -> Colu
         return columns
     sep = match.group(1).decode("ascii")
     shown = "\\t" if sep == "\t" else sep
-    if columns.delimiter is not None and columns.delimiter != sep:
+    if columns.sep is not None and columns.sep != sep:
         raise LogError(
             f"{source}: line 1 says sep={shown} (Excel's delimiter line) but the column map says "
             f"delimiter: {_yaml(columns.sep)}; remove one of them"

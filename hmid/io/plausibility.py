@@ -283,8 +283,9 @@ def motion(
         else f": check the units of t and {position}, or declare rig.channels.{position}."
         "max_speed and max_acceleration"
     )
-    kind = "time_unit" if said and said[0].startswith("is the time") else "speed"
-    return DataFinding(log, position, kind, found + advice)
+    if said and said[0].startswith("is the time"):
+        return DataFinding(log, position, "time_unit", found + advice)
+    return DataFinding(log, position, "speed", found + advice)
 
 
 # -- between channels ---------------------------------------------------------------------------
@@ -384,7 +385,10 @@ def check_channels(
     found += swapped(
         log,
         {c: v for c, v in channels.items() if c in sensor_ranges},
-        {c: tuple(b / unit_factor(own_units[c]) for b in r) for c, r in sensor_ranges.items()},
+        {
+            c: (r[0] / unit_factor(own_units[c]), r[1] / unit_factor(own_units[c]))
+            for c, r in sensor_ranges.items()
+        },
         own_units,
     )
     return tuple(f for f in found if f is not None)

@@ -95,10 +95,17 @@ def _parse(unit: str) -> pint.Unit | None:
         return None
 
 
+def _reference(unit: str) -> pint.Unit:
+    """The pint unit of one of hmid's own reference units (always readable)."""
+    parsed = _parse(unit)
+    assert parsed is not None, unit
+    return parsed
+
+
 def dimension_name(unit: pint.Unit) -> str:
     """A readable name of the unit's dimension, e.g. '[pressure]'."""
     for reference, name in _DIMENSION_NAMES.items():
-        if unit.dimensionality == _parse(reference).dimensionality:
+        if unit.dimensionality == _reference(reference).dimensionality:
             return name
     return str(unit.dimensionality)
 
@@ -116,7 +123,7 @@ def si_unit(unit: str, channel: str) -> str:
         raise UnitError(f"unknown unit {unit!r}; write a unit such as {examples}")
     if channel in CANONICAL_UNITS:
         target = CANONICAL_UNITS[channel]
-        wanted = _parse(target)
+        wanted = _reference(target)
         if parsed.dimensionality != wanted.dimensionality:
             kind = dimension_name(parsed)
             kind = kind if kind == "dimensionless" else f"a {kind}"
@@ -126,7 +133,7 @@ def si_unit(unit: str, channel: str) -> str:
             )
         return target
     for name in _NAMED_SI:
-        if parsed.dimensionality == _parse(name).dimensionality:
+        if parsed.dimensionality == _reference(name).dimensionality:
             return name
     base = unit_registry().Quantity(1.0, parsed).to_base_units().units
     # 'count' is its own (dimensionless) base unit in pint; '' would mean plain dimensionless.
@@ -155,7 +162,7 @@ def to_si(
 _SUPERSCRIPTS = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
 
 
-def format_unit(unit: object) -> str:
+def format_unit(unit: pint.Unit) -> str:
     """A pint unit as compact text: 'N', 'N/m', 'N·s²/m²', 'N/(m·Pa)'; '1' if dimensionless."""
     ureg = unit_registry()
 
@@ -167,7 +174,9 @@ def format_unit(unit: object) -> str:
         text = str(int(power)) if float(power).is_integer() else f"^{power:g}"
         return symbol + text.translate(_SUPERSCRIPTS)
 
-    items = list(unit._units.items())  # pint's UnitsContainer: {'newton': 1, 'meter': -2, ...}
+    # pint's UnitsContainer: {'newton': 1, 'meter': -2, ...}; pint types an exponent as any
+    # number (complex included), a unit's are int or float
+    items: list[tuple[str, float]] = list(unit._units.items())  # type: ignore[arg-type]
     numerator = "·".join(factor(n, p) for n, p in items if p > 0) or "1"
     negative = [factor(n, p) for n, p in items if p < 0]
     if not negative:

@@ -161,7 +161,7 @@ def check_time(t: np.ndarray, column: str | int, max_gap_factor: float, where: P
             "remove duplicated or out-of-order rows"
         )
     if len(dt) == 0:
-        return
+        return None
     median = float(np.median(dt))
     worst = int(np.argmax(dt))
     ratio = float(dt[worst]) / median

@@ -57,7 +57,7 @@ def with_elastic(signals: Signals, current: StructureFit, position: str | None) 
     elastic = [p for p in current.structure.terms if set(p.term.reads) == {position}]
 
     def force(seen: Signals) -> np.ndarray:
-        names = set()
+        names: set[str] = set()
         for placed in elastic:
             names.update(placed.term.columns(seen, placed.value).names)
         columns = current.structure.columns(seen)
@@ -110,7 +110,8 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
     signals = with_elastic(signals, current, setting.position)
     has_elastic = bool(np.any(signals[ELASTIC])) if ELASTIC in signals else False
     remaining = [c for c in candidates if has_elastic or not c.elastic]
-    decisions, effects, steps = [], [], []
+    decisions: list[Decision] = []
+    effects, steps = [], []
     part = "setting up"  # what the clock's next lap timed
     for round_no in range(1, spec.max_effects + 1):
         if round_no > 1:  # the model changed: its elastic force with it
@@ -181,7 +182,8 @@ def _select(round_no, current: StructureFit, screened: list[Screen], signals, bo
             cv = change(before, oof[i], folds, counts, spec.confidence)
             decisions[i] = replace(d, cv_change=cv.change, cv_upper=cv.upper,
                                    selected=cv.better(spec.margin))  # fmt: skip
-            if by_log is not None:  # the stricter wins: better within logs and across them
+            if by_log is not None and before_logs is not None:  # the stricter wins: better
+                # within logs and across them
                 across = out_of_fold(screened[i].joint.structure, signals, by_log)
                 cv = change(before_logs, across, by_log, counts, spec.confidence)
                 decisions[i] = replace(

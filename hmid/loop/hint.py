@@ -57,7 +57,7 @@ def sparse_hint(residual: np.ndarray, data: Signals, signal: str | None = None) 
     train, held = data.train, data.validation
     r_held = residual[held]
     total = float(((r_held - r_held.mean()) ** 2).sum())
-    best = None
+    best: tuple[float, np.ndarray] | None = None
     for k in range(1, MAX_TERMS + 1):
         fit = OrthogonalMatchingPursuit(n_nonzero_coefs=k, fit_intercept=False)
         fit.fit(values[train], residual[train])
@@ -65,6 +65,7 @@ def sparse_hint(residual: np.ndarray, data: Signals, signal: str | None = None) 
         if best is None or r2 > best[0] + 0.01:  # a term must earn 1 % of held-out variance
             best = (r2, fit.coef_.copy())
     periodic = periodicity(residual, data, signal) if signal else ""
+    assert best is not None  # the first size always sets it
     r2, coef = best
     used = np.flatnonzero(coef)
     order = used[np.argsort(-np.abs(coef[used]))]

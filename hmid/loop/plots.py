@@ -60,6 +60,8 @@ def plot_pattern(result: LoopResult, path: Path) -> None:
     fig.subplots_adjust(left=0.07, right=0.985, bottom=0.13, top=0.91, wspace=0.2)
     axes = fig.subplots(1, 2)
     data = result.data
+    if data is None:
+        raise ValueError("plot_pattern needs the loop result's data (the rows analysed)")
     values = signals(data)
     rows = data.train
     for ax, label, d, residual in (

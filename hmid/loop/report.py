@@ -199,7 +199,8 @@ def _hint(result: LoopResult, prefix: str, write_csv) -> tuple[tuple[Table, ...]
     """The data-driven hint's table (where it explains held-out variance) and its periodicity
     sentence (where it found one)."""
     hint = result.hint
-    tables, text = (), ""
+    tables: tuple[Table, ...] = ()
+    text = ""
     if hint is not None and hint.heldout_r2 > 0:
         write_csv(hint.terms, f"{prefix}_hint.csv")
         tables = (

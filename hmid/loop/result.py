@@ -142,7 +142,7 @@ def final_parameters(current: StructureFit, base_terms: int, base_name: str, eff
     (the first ``base_terms`` terms are the base's, then one per effect in turn)."""
     table = parameters(current, signals, confidence).drop(columns=["positive"])
     seen = current.structure.seen(signals)
-    owner = {}
+    owner: dict[str, str] = {}
     for i, placed in enumerate(current.structure.terms):
         part = base_name if i < base_terms else effects[i - base_terms].name
         for name in placed.term.columns(seen, placed.value).names:
@@ -179,6 +179,7 @@ def own_parameters(
         hyper = candidate.hyper
         low, high = interval if interval is not None else (np.nan, np.nan)
         value = fitted.structure.terms[-1].value
+        assert value is not None  # a profiled term is placed at a value
         # the interval is the screen's profile's; a joint refit may move the value a little
         # within its flat bottom, and the printed interval always holds the estimate
         low, high = min(low, value), max(high, value)

@@ -66,7 +66,7 @@ class Screen:
     def profiled(self) -> str:
         """Its profiled parameter with interval, and whether the grid's edge holds it."""
         hyper = self.candidate.hyper
-        if hyper is None:
+        if hyper is None or self.interval is None:  # an interval wherever there is a hyper
             return ""
         low, high = self.interval
         edge = " (grid edge)" if self.on_edge else ""
@@ -122,7 +122,9 @@ def screen(current: StructureFit, candidate: Candidate, signals: Signals, confid
         _fill(fits, index, signals, n_eff, confidence)
         sse = np.array([fits[j].sse if j in fits else np.inf for j in range(len(grid))])
         # refined at the crossings, around the estimate refined between grid points
-        estimate = (joint.structure.terms[-1].value, joint.sse)
+        value = joint.structure.terms[-1].value
+        assert value is not None  # a profiled term is placed at a value
+        estimate = (value, joint.sse)
         interval = likelihood_interval(grid, sse, n_eff, confidence, estimate, candidate.hyper.log)
     collinear = _rank_deficient(joint)
     ok = not collinear and consistent(candidate, joint, signals, confidence)
@@ -152,7 +154,7 @@ def along(current: StructureFit, candidate: Candidate, signals: Signals) -> dict
     return fits
 
 
-def _moved(start: StructureFit, index: int, value: float, signals: Signals) -> StructureFit:
+def _moved(start: StructureFit, index: int, value: float | None, signals: Signals) -> StructureFit:
     """The joint fit with the candidate at ``value``, the model's parameters walked from
     ``start``'s (the ridge followed)."""
     trial = fit_structure(start.structure.at(index, value), signals)

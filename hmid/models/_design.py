@@ -27,7 +27,7 @@ def row_design(
     and, through an optional ``block(name)``, a function of a slice of rows giving it there."""
     block = getattr(given, "block", None)
     arrays = {v: np.asarray(X[v], dtype=float) for v in X}
-    columns = []
+    columns: list[Callable[[slice], np.ndarray]] = []
     for term in terms:
         factor = term.scale_factor(scales)
         if term.name in given and block is not None:

@@ -27,7 +27,7 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Self, TypedDict
 
 import numpy as np
 import pandas as pd
@@ -91,7 +91,17 @@ class FitStatistics:
         return out
 
 
-def fit_statistics(y: np.ndarray, y_hat: np.ndarray, n_params: int) -> dict[str, float]:
+class GoodnessOfFit(TypedDict):
+    """What :func:`fit_statistics` returns (FitStatistics' fields of the same names)."""
+
+    r2: float
+    r2_adj: float
+    rmse: float
+    aic: float
+    bic: float
+
+
+def fit_statistics(y: np.ndarray, y_hat: np.ndarray, n_params: int) -> GoodnessOfFit:
     """``r2``, ``r2_adj``, ``rmse``, ``aic`` and ``bic`` of predictions ``y_hat`` of ``y``.
 
     ``n_params`` counts every fitted parameter (the intercept included). AIC and BIC are
@@ -177,9 +187,10 @@ class ForceModel(ABC):
     """
 
     family: ClassVar[str] = "force model"
+    summary_: FitStatistics  # set by _fit; its presence in __dict__ is what is_fitted reads
 
     @classmethod
-    def example(cls) -> ForceModel:
+    def example(cls) -> Self:
         """A cheap, valid, unfitted instance (for the contract tests and documentation)."""
         return cls()
 
@@ -231,7 +242,7 @@ class ForceModel(ABC):
     def _predict(self, X: Mapping[str, np.ndarray]) -> np.ndarray:
         """Predictions for checked inputs."""
 
-    def fit(self, X: pd.DataFrame, y: np.ndarray) -> ForceModel:
+    def fit(self, X: pd.DataFrame, y: np.ndarray) -> Self:
         """Fit the model to rows ``X`` (SI units) and forces ``y`` (N); returns ``self``."""
         source = f"{type(self).__name__}.fit"
         columns = check_frame(X, self.required_columns, source)

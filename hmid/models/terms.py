@@ -10,7 +10,7 @@ C0 ... C15.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from functools import cache
 from itertools import product
 from types import MappingProxyType
@@ -100,13 +100,13 @@ def variant_terms(name: str) -> tuple[Monomial, ...]:
     return polynomial_terms(variables, degree)
 
 
-def resolve_terms(terms: object) -> tuple[Monomial, ...]:
+def resolve_terms(terms: str | Iterable[Monomial | str]) -> tuple[Monomial, ...]:
     """A variant name or a tuple of :class:`~hmid.balance.monomial.Monomial` (or names like
     ``'x^2*v'``), checked."""
     if isinstance(terms, str):
         return variant_terms(terms)
     try:
-        items = tuple(terms)  # type: ignore[arg-type]
+        items = tuple(terms)
     except TypeError:
         raise ConfigError(
             f"terms must be a variant name ({', '.join(VARIANTS)}) or a tuple of Monomial, "

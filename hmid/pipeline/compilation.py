@@ -35,7 +35,7 @@ def use_compilation_cache(folder: Path) -> None:
         return
     import jax
 
-    if jax.config.jax_compilation_cache_dir:
+    if jax.config.jax_compilation_cache_dir:  # type: ignore[attr-defined]  # set dynamically
         return
     folder.mkdir(parents=True, exist_ok=True)
     for name, value in values.items():

@@ -174,7 +174,8 @@ def _model_sections(fitted, out: _Folders) -> tuple[list[Section], list[tuple[An
         coefficients = model.coefficient_table()
         out.csv(coefficients, f"coefficients_{safe}.csv")
         text = f"`{model.equation}`" + "".join(f"\n\n- {note}" for note in model.notes)
-        extra_tables, extra_figures = [], []
+        extra_tables: list[Table] = []
+        extra_figures: list[Figure] = []
         extras = model.model.report_extras()
         if extras is not None:  # e.g. MCMC diagnostics of a Bayesian family
             text += "\n\n" + extras.text if extras.text else ""
@@ -364,7 +365,7 @@ def _summary(config, artifacts, unit: str, friction_summary: tuple) -> tuple:
     verdict = None if loop is None else loop_verdict(config, loop)
     failed = getattr(artifacts["fit"], "failed", ())
     failed_summary = (("⚠ failed fits", "; ".join(f.message() for f in failed)),) if failed else ()
-    sign_summary = ()
+    sign_summary: tuple[tuple[str, str], ...] = ()
     if findings:
         sign_summary = (
             ("⚠ physical-sign check", f"{len(findings)} parameter(s) fitted with an impossible "

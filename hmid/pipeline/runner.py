@@ -107,7 +107,7 @@ class Runner:
         config: Any,
         *,
         keep: Collection[str] | None = None,
-        before: Mapping[str, Callable[[], None]] | None = None,
+        before: Mapping[str, Callable[[], object]] | None = None,
     ) -> dict[str, Any]:
         """Run ``stages`` (each after its inputs); returns every artifact by stage name, or only
         those named in ``keep``: the others are let go after their last reader, so that a long

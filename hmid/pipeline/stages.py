@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from hmid.balance import Signals
+from hmid.balance import RigSection, Signals
 from hmid.denoise import Piece, check_time_base, denoise_log, pieces
 from hmid.errors import ConfigError, FitError, HmidWarning, LogError
 from hmid.experiment import ExperimentConfig, log_units
@@ -55,14 +55,16 @@ def load(config: ExperimentConfig) -> dict[str, LoadedLog]:
             log = read_log(path, load_column_map(config.resolve(entry.columns)))
         flipped = {c: -log[c] for c in flips if c in log}
         if flipped:
-            log = log.with_channels(**flipped)
+            log = log.with_channels(None, **flipped)
         _no_absurd_sample(log, path, _read_channels(config, entry.role))
         out[name] = LoadedLog(name, entry.role, log)
     return out
 
 
 def _read_channels(config: ExperimentConfig, role: str) -> tuple[str, ...]:
-    return config.rig.log_channels if role == "dynamic" else (config.rig.position,)
+    if role == "dynamic" or config.rig.position is None:
+        return config.rig.log_channels
+    return (config.rig.position,)
 
 
 def _no_absurd_sample(log: Log, path, channels) -> None:
@@ -109,7 +111,7 @@ def denoise(config: ExperimentConfig, load: dict[str, LoadedLog]) -> dict[str, D
         kept, records = pieces(
             item.log, name, config.denoise.split_gaps_s, 3 * config.denoise.longest_window_s
         )
-        channels = rig.log_channels if item.role == "dynamic" else (rig.position,)
+        channels = rig.log_channels if item.role == "dynamic" else (_position(rig),)
         denoised = tuple(
             denoise_log(part, smoother, differentiator, channels=channels, position=rig.position)
             for part in kept
@@ -150,7 +152,8 @@ def plausibility(config: ExperimentConfig, load: dict[str, LoadedLog], summaries
     loaded, and the motion its smoothed position implies."""
     from hmid.io import plausibility as p
 
-    rig, limits, found = config.rig, config.rig.limits(), []
+    rig, limits = config.rig, config.rig.limits()
+    found: list = []
     maps = {log_name(config.resolve(e.path)): config.resolve(e.columns) for e in config.logs}
     for summary in summaries:
         item, columns = load[summary.name], load_column_map(maps[summary.name])
@@ -158,10 +161,11 @@ def plausibility(config: ExperimentConfig, load: dict[str, LoadedLog], summaries
         specs = {c: columns.channels[c] for c in read}
         own = {c: spec.unit for c, spec in specs.items()}
         sensor = {
-            c: tuple(float(b) * p.unit_factor(spec.unit) for b in spec.range)
+            c: (float(spec.range[0]) * p.unit_factor(spec.unit),
+                float(spec.range[1]) * p.unit_factor(spec.unit))
             for c, spec in specs.items()
             if spec.range is not None
-        }
+        }  # fmt: skip
         channels = {c: item.log[c] for c in read}
         found += p.check_channels(summary.name, channels, item.log.units, own, sensor, limits)
         if rig.position is not None and summary.peak_speed is not None:
@@ -184,6 +188,7 @@ def friction(config: ExperimentConfig, denoise: dict[str, Denoised]):
     free_fall = [p for item in denoise.values() if item.role == "free_fall" for p in item.pieces]
     model = {"coulomb": Coulomb, "coulomb_viscous": CoulombViscous}[config.friction.model]()
     rig = config.rig
+    assert rig.free_fall is not None  # the rig requires it for a term from: free_fall
     return identify_friction(
         free_fall,
         FallRig(rig.free_fall.mass, rig.free_fall.drive),
@@ -191,7 +196,7 @@ def friction(config: ExperimentConfig, denoise: dict[str, Denoised]):
         differentiator=config.denoise.build()[1],
         v_min=config.friction.v_min,
         confidence=config.friction.confidence,
-        position=rig.position,
+        position=_position(rig),
         friction_sign=rig.from_free_fall[0].sign,
         explained=rig.explained.channels[0] if len(rig.explained.parts) == 1 else None,
     )
@@ -235,7 +240,8 @@ class Split:
 
 def split(config: ExperimentConfig, signals: Signals) -> Split:
     """Training and held-out rows, the same for every family."""
-    log, lengths = signals.frame["log"], {}
+    log = signals.frame["log"]
+    lengths: dict[str, int] = {}
     for start, stop in signals.bounds():  # a segment is a piece of one log; logs in order
         lengths[log.iat[start]] = lengths.get(log.iat[start], 0) + stop - start
     masks = validation_masks(lengths, config.split)
@@ -298,7 +304,9 @@ def rows(config: ExperimentConfig, split: Split) -> Rows:
     from hmid.balance.signals import raw
     from hmid.io.plausibility import no_rows
 
-    signals, found, seen = split.signals, [], {}
+    signals = split.signals
+    found: list = []
+    seen: dict = {}
     v = signals[raw("v")] if config.rig.position is not None else None
     for start, stop in signals.bounds():  # segment by segment: no copy of a long log's rows
         n, usable, peak = seen.get(signals.frame["log"].iat[start], (0, 0, 0.0))
@@ -409,7 +417,8 @@ def freerun(config: ExperimentConfig, split: Split, fit: list[Fitted], export: d
             out[name] = FreeRun(name, (), document)
             continue
         fitted = next(m for m in fit if m.name == name)
-        draws = fitted.model.posterior_draws() if _draws(fitted) else None
+        posterior_draws = _draws(fitted)
+        draws = posterior_draws() if posterior_draws else None
         out[name] = None  # keeps the models' order
         run = partial(simulate_signals, draws=FREE_RUN_DRAWS, level=FREE_RUN_LEVEL,
                       seed=config.seed)  # fmt: skip
@@ -426,6 +435,13 @@ FREE_RUN_DRAWS, FREE_RUN_LEVEL = 20, 0.9
 def file_stem(model_name: str) -> str:
     """A model's name as a file name (``poly:cubic_xv`` -> ``poly_cubic_xv``)."""
     return model_name.replace(":", "_")
+
+
+def _position(rig: RigSection) -> str:
+    """The rig's position channel, which free-fall logs and friction need."""
+    if rig.position is None:
+        raise ConfigError("rig: free-fall logs need the rig's position channel")
+    return rig.position
 
 
 def _draws(model: Fitted):

@@ -27,6 +27,7 @@ def fixed_terms(structure: Structure) -> tuple[TermSpec, ...]:
     out = []
     for placed in structure.terms:
         term = placed.term
+        assert isinstance(term, TermSpec)  # a balance of declared terms (not loop candidates)
         grids = [name for name in type(term).model_fields if isinstance(getattr(term, name), Grid)]
         if grids and placed.value is not None:
             term = term.model_copy(update={grids[0]: float(placed.value)})

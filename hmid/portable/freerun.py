@@ -24,8 +24,10 @@ that time, with the state that left first.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import lru_cache, partial
+from typing import Any
 
 import numpy as np
 
@@ -33,14 +35,23 @@ from hmid.balance.kinds import (
     ChannelTerm,
     ConstantTerm,
     CoulombTerm,
+    Grid,
     LagTerm,
     MemoryTerm,
     SmoothCoulombTerm,
+    TermSpec,
 )
 
 
 class NotSimulable(ValueError):
     """The model's balance is not an equation of motion this integrator runs (one line: why)."""
+
+
+def _fixed(term: TermSpec, value: float | Grid) -> float:
+    """A profiled parameter's value (the exported file holds it in place of the grid)."""
+    if isinstance(value, Grid):
+        raise NotSimulable(f"term {term.name}: a grid, not a value, for its profiled parameter")
+    return float(value)
 
 
 @dataclass(frozen=True)
@@ -72,7 +83,7 @@ def equation(model, v0: float | None = None) -> Equation:
     inputs: list[str] = []
     memory: list[float] = []
     lags: list[tuple[str, float]] = []
-    rhs = []
+    rhs: list[tuple[str, Any, float]] = []
 
     def channel(name: str) -> str:
         if name in (x, "v", "a"):
@@ -101,15 +112,15 @@ def equation(model, v0: float | None = None) -> Equation:
         if isinstance(term, MemoryTerm):
             if term.channel != x:
                 raise NotSimulable(f"term {term.name}: a memory arm of {term.channel}")
-            memory.append(float(term.tau))
-            return [("memory", (len(memory) - 1, float(term.tau)), s)]
+            memory.append(_fixed(term, term.tau))
+            return [("memory", (len(memory) - 1, _fixed(term, term.tau)), s)]
         if isinstance(term, LagTerm):
             if term.channel in (x, "v", "a"):
                 raise NotSimulable(f"term {term.name}: a lag of the state {term.channel}")
             name = channel(term.channel)
             if term.filter == "delay":
-                return [("delay", (name, float(term.time)), s)]
-            lags.append((name, float(term.time)))
+                return [("delay", (name, _fixed(term, term.time)), s)]
+            lags.append((name, _fixed(term, term.time)))
             return [("lag", len(lags) - 1, s)]
         raise NotSimulable(f"term {term.name} of kind {term.kind} has no free-run form")
 
@@ -121,6 +132,7 @@ def equation(model, v0: float | None = None) -> Equation:
             rhs.append(("friction", (float(law["Fc"]), float(law["b"]), v0), float(term.sign)))
         else:
             rhs += term_parts(term, rig.term_value(term, units))
+    lhs: list[tuple[str, Any, float]]
     if rig.motion is not None:
         lhs = [("accel", None, float(rig.motion.mass)), ("const", None, float(rig.motion.offset))]
     else:
@@ -356,12 +368,10 @@ class FreeRun:
         if forces:
             ferr = np.concatenate([r.explained_simulated - r.explained_measured for r in forces])
             rmse_f = float(np.sqrt(np.mean(ferr**2)))
-        banded = [r for r in ok if r.band is not None]
+        banded = [(r.x_measured, r.band) for r in ok if r.band is not None]
         coverage = np.nan
         if banded:
-            inside = np.concatenate(
-                [(r.band[0] <= r.x_measured) & (r.x_measured <= r.band[1]) for r in banded]
-            )
+            inside = np.concatenate([(band[0] <= x) & (x <= band[1]) for x, band in banded])
             coverage = float(inside.mean())
         return out | {
             "band coverage": coverage,
@@ -389,8 +399,8 @@ class Simulator:
 
     equation: Equation
     position: str
-    run: object = field(repr=False)
-    batch: object = field(repr=False)  # ``run`` over draws (vmapped)
+    run: Callable[..., Any] = field(repr=False)
+    batch: Callable[..., Any] = field(repr=False)  # ``run`` over draws (vmapped)
 
     @property
     def n_memory(self) -> int:
@@ -547,7 +557,6 @@ def simulate_signals(
         first = rows[0]
         run = sim.integrate(signals["t"][rows], inputs, signals[position][first],
                             signals["v"][first], [m[first] for m in memory_rows])  # fmt: skip
-        band = None
         bounds = None
         if sampled:
             noise = disturbances(model, len(rows), len(sampled), rng)

@@ -93,7 +93,7 @@ class Model:
             raise LogError(f"{log.source}: the model {self.name!r} reads {needed}, absent here")
         flips = {c: -log[c] for c, s in rig.channels.items() if s.sign < 0 and c in log}
         if flips:
-            log = log.with_channels(**flips)
+            log = log.with_channels(None, **flips)
         smoother, differentiator = DenoiseSection.model_validate(self.document["denoise"]).build()
         piece = denoise_log(log, smoother, differentiator, channels=rig.log_channels,
                             position=rig.position)  # fmt: skip

@@ -77,7 +77,7 @@ def format_value(
             return format(x, float_format)
         return format_float(x, decimals=decimals)
     try:
-        if pd.isna(value):  # type: ignore[arg-type]
+        if pd.isna(value):
             return MISSING
     except (TypeError, ValueError):  # array-likes: fall through to str()
         pass

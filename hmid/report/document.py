@@ -39,7 +39,7 @@ def _check_str(owner: str, name: str, value: object, *, nonempty: bool = False) 
 def _as_tuple(owner: str, name: str, value: object, kind: type) -> tuple:
     if isinstance(value, str | bytes) or not hasattr(value, "__iter__"):
         raise TypeError(f"{owner}.{name} must be a tuple of {kind.__name__}, got {value!r}")
-    items = tuple(value)  # type: ignore[arg-type]
+    items = tuple(value)
     for i, item in enumerate(items):
         if not isinstance(item, kind):
             raise TypeError(

@@ -128,7 +128,7 @@ class SavitzkyGolay(Differentiator):
                 f"{jitter:.1%} (relative std, limit {MAX_STEP_JITTER:.0%}); resample the log or "
                 f"use derivative kind {SmoothedFiniteDifference.kind!r}"
             )
-        n = self.window.samples(median_dt(t), odd=True)
+        n = as_window(self.window).samples(median_dt(t), odd=True)  # a Window since __post_init__
         self._check_length(n)
         check_fits(n, y.size, f"a Savitzky-Golay window of {n} samples")
         return savgol_filter(y, n, self.polyorder, deriv=order, delta=step, mode="interp")

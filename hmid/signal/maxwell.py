@@ -116,7 +116,7 @@ SCAN = "sequential"
 
 
 def unit_response(
-    t: jax.Array, x: jax.Array, start: jax.Array, tau: jax.Array, scan: str = SCAN
+    t: jax.Array, x: jax.Array, start: jax.Array, tau: jax.Array | np.ndarray, scan: str = SCAN
 ) -> jax.Array:
     """g_tau, the Maxwell-arm force per unit k2 (m), shape ``(n, *tau.shape)``."""
     dt, v = intervals(t, x, start)

@@ -96,6 +96,7 @@ class Window:
                     f"use {n - 1} or {n + 1}"
                 )
             return n
+        assert self.seconds is not None  # exactly one of the two (__post_init__)
         if dt is None:
             raise SignalError(
                 f"a window of {self.seconds} s needs the time step dt to count samples"
@@ -278,8 +279,9 @@ class MovingAverage(Smoother):
         return self.passes * n, lambda y: self._passes(as_signal(y), n)
 
     def _samples(self, t: np.ndarray) -> int:
-        dt = median_dt(t) if self.window.seconds is not None else None
-        n = self.window.samples(dt, odd=self.mode == "centred")
+        window = as_window(self.window)  # a Window since __post_init__
+        dt = median_dt(t) if window.seconds is not None else None
+        n = window.samples(dt, odd=self.mode == "centred")
         check_fits(n, t.size, f"a {self.mode} moving average of {n} samples")
         return n
 

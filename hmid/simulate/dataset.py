@@ -17,7 +17,7 @@ from __future__ import annotations
 import zlib
 from collections.abc import Iterable
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, NamedTuple
+from typing import TYPE_CHECKING, Annotated, Any, NamedTuple, Protocol
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -62,6 +62,15 @@ def unique_names(logs: Iterable[Any]) -> None:
         raise ValueError(f"log names must be unique; repeated: {dupes}")
 
 
+class LogEntry(Protocol):
+    """What the truth record reads of a log entry (each rig's own pydantic model)."""
+
+    @property
+    def name(self) -> str: ...
+
+    def model_dump(self, *, mode: str = ...) -> dict[str, Any]: ...
+
+
 class RigDataset(BaseModel):
     """Base of every rig's data-set config: what the shared writer needs of it.
 
@@ -70,6 +79,11 @@ class RigDataset(BaseModel):
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    if TYPE_CHECKING:  # each subclass declares them, in its own order (pydantic fields)
+        seed: int
+        output: Any  # the rig's output section: ``format`` and ``units``
+        logs: tuple[Any, ...]
 
     def seed_for(self, spec: Any) -> int:
         """The log's own seed: given, or the data set's mixed with the log's name."""
@@ -107,7 +121,7 @@ class RigDataset(BaseModel):
 
 def truth_record(
     config: RigDataset,
-    spec: BaseModel,
+    spec: LogEntry,
     seed: int,
     params: dict[str, Any],
     tail: dict[str, Any],

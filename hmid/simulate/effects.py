@@ -313,9 +313,11 @@ def make_effect(spec: Mapping[str, object] | Effect) -> Effect:
         raise ConfigError(f"effect kind {kind!r} is unknown; known kinds: {sorted(EFFECTS)}")
     cls = EFFECTS[kind]
     allowed = [f.name for f in dataclasses.fields(cls)]
+    numbers: dict[str, float] = {}
     for key, value in params.items():
         if key not in allowed:
             raise ConfigError(f"effect {kind!r}: unknown key {key!r}; allowed keys: {allowed}")
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise ConfigError(f"effect {kind!r}: key {key!r} must be a number, got {value!r}")
-    return cls(**{k: float(v) for k, v in params.items()})
+        numbers[key] = float(value)
+    return cls(**numbers)

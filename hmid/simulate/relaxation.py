@@ -95,7 +95,7 @@ def relax(
     def crossed(t, y):
         return y[0] - x_eq
 
-    crossed.terminal, crossed.direction = True, -1
+    vars(crossed).update(terminal=True, direction=-1)  # attributes solve_ivp reads
     sol = solve_ivp(
         rhs, (0.0, t_max), [x0, 0.0], method="Radau", events=crossed, dense_output=True,
         rtol=1e-9, atol=[1e-12, 1e-10], max_step=1e-4,

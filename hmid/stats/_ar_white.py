@@ -99,15 +99,18 @@ def fit_ar_white(records: Sequence[tuple[np.ndarray, np.ndarray]]) -> ARWhite | 
 
     n = sum(len(r) for _, r in records)
     p = sum(d.shape[1] for d, _ in records)
-    found = sum(np.array([r[k:] @ r[: len(r) - k] for k in range(3)]) for _, r in records)
+    # start at zeros, not 0: an array whatever the records (0.0 + x is x exactly)
+    found = sum(
+        (np.array([r[k:] @ r[: len(r) - k] for k in range(3)]) for _, r in records), np.zeros(3)
+    )
     if n < 4 * p or found[1] <= 1.96 / np.sqrt(n) * found[0] or found[2] <= 0:
         return None
     bases = [np.linalg.qr(d)[0] for d, _ in records]
-    white = sum(_expected(q, None) for q in bases)
+    white = sum((_expected(q, None) for q in bases), np.zeros(3))
 
     def scales(phi: float) -> tuple[np.ndarray, float]:
         """(s_a, s_w) matching lags 0 and 1, and the gap left at lag 2."""
-        ar = sum(_expected(q, phi) for q in bases)
+        ar = sum((_expected(q, phi) for q in bases), np.zeros(3))
         s = np.linalg.solve([[ar[0], white[0]], [ar[1], white[1]]], found[:2])
         return s, float(ar[2] * s[0] + white[2] * s[1] - found[2])
 

@@ -11,6 +11,7 @@ tests (:func:`holm`), and the profile-likelihood interval of a grid parameter on
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,15 +38,15 @@ class NestedTest:
         return cls(float(f), float(stats.f.sf(f, q, df)), float(delta_bic), q)
 
 
-def holm(p: list[float]) -> np.ndarray:
+def holm(p: Sequence[float] | np.ndarray) -> np.ndarray:
     """Holm's step-down adjusted p-values (family-wise error over one round's candidates)."""
-    p = np.asarray(p, dtype=float)
-    if p.size == 0:
-        return p
-    order = np.argsort(p)
-    scaled = p[order] * (p.size - np.arange(p.size))
+    values = np.asarray(p, dtype=float)
+    if values.size == 0:
+        return values
+    order = np.argsort(values)
+    scaled = values[order] * (values.size - np.arange(values.size))
     adjusted = np.minimum(np.maximum.accumulate(scaled), 1.0)
-    out = np.empty_like(p)
+    out = np.empty_like(values)
     out[order] = adjusted
     return out
 

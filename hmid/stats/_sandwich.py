@@ -18,18 +18,22 @@ sandwich ``(X'X)^-1 X' S X (X'X)^-1`` holds for any error covariance ``S``:
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from hmid._blas import one_blas_thread
 from hmid.stats._autocorrelation import Segmented
 
+if TYPE_CHECKING:
+    from hmid.models._lstsq import RowBlocks
+
 #: Rows per block of the row-order sandwich's frequency-domain sum.
 SANDWICH_BLOCK = 32_768
 
 
 def autocov_covariance(
-    exog: np.ndarray,
+    exog: np.ndarray | RowBlocks,
     gamma: np.ndarray,
     bread: np.ndarray | None = None,
     block: int = SANDWICH_BLOCK,
@@ -51,11 +55,14 @@ def autocov_covariance(
     if segmented is None:
         n, p = exog.shape
         if bread is None:
-            bread = np.linalg.pinv(exog.T @ exog)
+            X = np.asarray(exog)
+            bread = np.linalg.pinv(X.T @ X)
         meat = _row_meat(exog, gamma.size - 1, block)
     else:
+        if rows is None or bread is None:
+            raise ValueError("autocov_covariance: segmented= needs rows= and bread= as well")
         n, p = int(rows.sum()), exog.shape[1]
-        meat = _segment_meat(exog, rows, segmented, gamma.size - 1)
+        meat = _segment_meat(np.asarray(exog), rows, segmented, gamma.size - 1)
 
     def sandwich(g: np.ndarray) -> np.ndarray:
         return bread @ meat(g) @ bread * (n / max(n - p, 1))
@@ -86,7 +93,9 @@ def _segment_meat(
     return meat
 
 
-def _row_meat(exog: np.ndarray, lags: int, block: int) -> Callable[[np.ndarray], np.ndarray]:
+def _row_meat(
+    exog: np.ndarray | RowBlocks, lags: int, block: int
+) -> Callable[[np.ndarray], np.ndarray]:
     """``g -> X' S X`` for ``exog``'s rows as one record, summed by blocks in the frequency
     domain."""
     from scipy import fft

@@ -117,10 +117,12 @@ class SweepConfig(_Frozen):
         """The overrides of every run, in order (a grid: the first key varies slowest)."""
         if self.runs is not None:
             return tuple(dict(overrides) for overrides in self.runs)
-        keys = list(self.grid)
+        grid = self.grid
+        assert grid is not None  # exactly one of runs and grid
+        keys = list(grid)
         return tuple(
             dict(zip(keys, values, strict=True))
-            for values in itertools.product(*(self.grid[k] for k in keys))
+            for values in itertools.product(*(grid[k] for k in keys))
         )
 
 

@@ -226,11 +226,14 @@ def execute(
                 own_pool = executor is None and section.kind == "process"
                 window = (section.workers or os.cpu_count() or 1) if own_pool else len(pending)
                 pool = executor or new_pool()
+                assert pool is not None  # new_pool() opens one where the caller gave none
                 _run_all(pool, new_pool, window, plan, work, pending, records, progress)
     finally:
         for run in pending:  # runs that recorded themselves while we were interrupted
-            if run.run_id not in records and (record := read_done(plan.folder, run.run_id)):
-                records[run.run_id] = record
+            run_id = run.run_id
+            assert run_id is not None  # pending runs are the valid ones
+            if run_id not in records and (record := read_done(plan.folder, run_id)):
+                records[run_id] = record
         table, markdown = write_table(plan, records, _describe(section, executor))
     return SweepOutcome(
         plan.folder, table, markdown, sweep_frame(plan, records), len(pending), len(plan.done)

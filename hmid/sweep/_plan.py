@@ -102,7 +102,9 @@ def plan_sweep(
     """
     base = _absolute_logs(read_yaml(sweep.base_path), sweep.base_path.parent)
     folder = (Path(results) / sweep.name).resolve()
-    runs, hashes, seen = [], {}, {}
+    runs: list[PlannedRun] = []
+    hashes: dict[Any, str] = {}  # a log's path (or column map's) -> its digest
+    seen: dict[str, int] = {}
     for number, overrides in enumerate(sweep.override_sets(), start=1):
         run = PlannedRun(number, overrides)
         try:
@@ -117,9 +119,11 @@ def plan_sweep(
         if run.run_id is not None:
             seen[run.run_id] = number
         runs.append(run)
-    done = {}
+    done: dict[str, RunRecord] = {}
     for run in runs:
-        record = None if force or run.run_id is None else read_done(folder, run.run_id)
+        if force or run.run_id is None:
+            continue
+        record = read_done(folder, run.run_id)
         if record is not None and not (retry_failed and record.status == "failed"):
             done[run.run_id] = record
     return SweepPlan(sweep, folder, tuple(runs), done, force)

@@ -55,7 +55,7 @@ def sweep_frame(
     rows = []
     for run in plan.runs:
         record = records.get(run.run_id) if run.run_id is not None else None
-        row = {"#": run.number, "run id": run.run_id}
+        row: dict[str, Any] = {"#": run.number, "run id": run.run_id}
         row |= {k: show(run.overrides[k]) if k in run.overrides else None for k in keys}
         row["status"] = _status(run, record)
         row |= record.summary if record is not None else {}

@@ -153,7 +153,10 @@ class Candidate(Term):
     # -- helpers for subclasses ---------------------------------------------------------------
     @property
     def sign(self) -> int:
-        return self.setting.friction_sign if self.friction else 1
+        sign = self.setting.friction_sign if self.friction else 1
+        if sign is None:  # friction candidates are offered only where the sign is known
+            raise ValueError(f"candidate {self.name!r} needs the rig's friction sign")
+        return sign
 
     def column(self, signals: Signals, name: str, values, powers=None, unit=None) -> Column:
         """A column ``name`` with the candidate's sign, unit from ``powers`` of channels."""

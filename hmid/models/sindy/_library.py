@@ -108,7 +108,8 @@ class FeatureLibrary:
             )
         if self.friction_term:
             candidates.append((len(powers), Feature(TANH_NAME, TANH_NAME, "N", 1.0)))
-        kept, dropped = [], []
+        kept: list[tuple[int, Feature]] = []
+        dropped: list[tuple[int, Feature]] = []
         size = np.max(np.abs(design), axis=0) if len(design) else np.zeros(design.shape[1])
         probe = design[:: max(1, len(design) // 64)]  # a column unlike another differs here first
         for j, feature in candidates:

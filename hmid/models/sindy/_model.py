@@ -364,7 +364,7 @@ class SINDyForceModel(ForceModel):
     def equation(self, digits: int = 4) -> str:
         """``'F_m = 0.0002 [N/Pa]·P - 3000 [N/m]·x - 2e+06 [N/m³]·x³'`` (selected terms only)."""
         self._check_fitted()
-        parts = []
+        parts: list[str] = []
         for feature, c in zip(self.features_, self.coef_, strict=True):
             if c == 0:
                 continue

@@ -18,6 +18,10 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 Variable = Literal["x", "v", "P"]
 
 
+def _pressure_linear() -> dict[Variable, int]:
+    return {"P": 1}
+
+
 class _Section(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
@@ -45,7 +49,7 @@ class SINDySettings(_Section):
     variables: Annotated[tuple[Variable, ...], Field(min_length=1)] = ("x", "v", "P")
     degree: Annotated[int, Field(ge=1, le=4)] = 3
     max_degree: dict[Variable, Annotated[int, Field(ge=0, le=4)]] = Field(
-        default_factory=lambda: {"P": 1}
+        default_factory=_pressure_linear
     )
     friction_terms: bool = True
     v0: Annotated[float, Field(gt=0, le=1)] = 1e-3

@@ -74,7 +74,8 @@ def combine(stats: BlockStats, weights: np.ndarray) -> np.ndarray:
     """The ``(p+1) x (p+1)`` factor of the blocks stacked with (integer or real) ``weights``."""
     use = np.flatnonzero(weights > 0)
     stacked = (np.sqrt(weights[use])[:, None, None] * stats.r[use]).reshape(-1, stats.r.shape[2])
-    factor = np.linalg.qr(stacked, mode="r")
+    # numpy's stubs type every mode's result as (Q, R); mode="r" returns R alone
+    factor: np.ndarray = np.linalg.qr(stacked, mode="r")  # type: ignore[assignment]
     out = np.zeros((stats.r.shape[2], stats.r.shape[2]))
     out[: factor.shape[0]] = factor
     return out

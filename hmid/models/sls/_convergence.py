@@ -62,7 +62,8 @@ def check_points(cfg, upto: int) -> list[int]:
 
 def replay(chain: np.ndarray, cfg) -> Replay:
     """Where a fresh run with ``cfg`` stops within ``chain`` (steps, walkers, D), if it does."""
-    tau = tau_ref = None
+    tau: np.ndarray | None = None
+    tau_ref: np.ndarray | None = None
     history: list[list[float]] = []
     for n in check_points(cfg, len(chain)):
         tau_prior, tau = tau_ref, tau_of(chain[:n])

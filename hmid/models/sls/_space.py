@@ -41,12 +41,12 @@ _NOISE_UNITS = {"sigma": "N", "phi": "1"}  # the force parameters' are in .terms
 class Mechanics(NamedTuple):
     """Physical force-model parameters; leading (walker) shape of theta, arms on the last axis."""
 
-    A_eff: jax.Array
-    F0: jax.Array
-    k1: jax.Array
-    k3: jax.Array  # zeros for a linear spring
-    k2: jax.Array  # (..., arms)
-    tau: jax.Array  # (..., arms)
+    A_eff: jax.Array | np.ndarray
+    F0: jax.Array | np.ndarray
+    k1: jax.Array | np.ndarray
+    k3: jax.Array | np.ndarray  # zeros for a linear spring
+    k2: jax.Array | np.ndarray  # (..., arms)
+    tau: jax.Array | np.ndarray  # (..., arms)
 
 
 def _xp(value):
@@ -186,7 +186,7 @@ class SLSSpace:
         centre = dict(_CENTRES, F0=0.0, phi=0.0)
         for (k2, tau), value in zip(self.arm_names(), taus, strict=True):
             centre[k2], centre[tau] = _CENTRES["k2"], float(value)
-        return self.from_physical({p: centre[p] for p in self.physical_names})
+        return np.asarray(self.from_physical({p: centre[p] for p in self.physical_names}))
 
     def gaussian_prior(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Mask, mean and sd of the coordinates with a Gaussian prior (all but atanh phi, and

@@ -145,8 +145,8 @@ def _grid_search(space: SLSSpace, data: SLSData, grid: np.ndarray):
 def _refine(space: SLSSpace, data: SLSData, theta0, scale, rtol, atol, max_steps):
     """LM on theta's force coordinates: used residuals / scale, stacked with prior z-scores."""
     n_force = theta0.shape[0]
-    _, mean, sd = space.gaussian_prior()  # every force coordinate has a Gaussian prior
-    mean, sd = jnp.asarray(mean[:n_force]), jnp.asarray(sd[:n_force])
+    _, prior_mean, prior_sd = space.gaussian_prior()  # every force coordinate has a Gaussian prior
+    mean, sd = jnp.asarray(prior_mean[:n_force]), jnp.asarray(prior_sd[:n_force])
     noise = jnp.zeros(space.dim - n_force)
 
     def residuals(theta_force, data):
@@ -154,7 +154,9 @@ def _refine(space: SLSSpace, data: SLSData, theta0, scale, rtol, atol, max_steps
         r = jnp.where(data.use, data.F - _lik.force(space, theta, data)[:, 0], 0.0) / scale
         return jnp.concatenate([r, (theta_force - mean) / sd])
 
+    solver: optx.LevenbergMarquardt[jax.Array, jax.Array, None]
     solver = optx.LevenbergMarquardt(rtol=rtol, atol=atol)
+    sol: optx.Solution[jax.Array, None]
     sol = optx.least_squares(residuals, solver, theta0, args=data, max_steps=max_steps, throw=False)
     return sol.value, sol.result, sol.stats["num_steps"]
 
@@ -209,7 +211,7 @@ def initial_fit(
             space, data, jnp.asarray(theta0[:n_force]), scale, rtol, atol, max_steps
         )
         ok = bool(result == optx.RESULTS.successful)
-        message = optx.RESULTS[result] or "converged"
+        message = optx.RESULTS[result] or "converged"  # type: ignore[misc]  # equinox's metaclass
     if not ok:
         raise StartError(
             f"initial_fit: Levenberg-Marquardt did not converge after {int(steps)} steps: "

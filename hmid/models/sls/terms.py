@@ -63,7 +63,7 @@ class SLSForce:
     @property
     def fixed(self) -> tuple[LinearParameter, ...]:
         """The parameters whose column has no relaxation time: A_eff, F0, k1, [k3]."""
-        out = (
+        out: tuple[LinearParameter, ...] = (
             LinearParameter("A_eff", "P", 1, positive=True, unit="m²"),
             LinearParameter("F0", "1", 1, positive=False, unit="N"),
             LinearParameter("k1", "x", -1, positive=True, unit="N/m"),
@@ -103,7 +103,11 @@ class SLSForce:
 
     def arm_names(self) -> list[tuple[str, str]]:
         """``(k2, tau)`` physical names of each arm: ``k2``/``tau`` or ``k2_i``/``tau_i``."""
-        return [(p.name, p.tau) for p in self.memory]
+        names = []
+        for p in self.memory:
+            assert p.tau is not None  # an arm's stiffness names its relaxation time
+            names.append((p.name, p.tau))
+        return names
 
     # -- the columns ----------------------------------------------------------------------------
     def fixed_columns(self, P, x, x3) -> list[np.ndarray]:

@@ -180,7 +180,9 @@ def column_map(sensors: Sensors, units: LoggerUnits, channels: tuple[str, ...]) 
     Each sensed channel carries its ADC's reachable span (lo to hi - 1 LSB) as ``range`` so the
     loader flags saturated samples.
     """
-    out = {"t": {"column": column_name("t", units["t"]), "unit": units["t"]}}
+    out: dict[str, dict[str, Any]] = {
+        "t": {"column": column_name("t", units["t"]), "unit": units["t"]}
+    }
     for name in channels:
         spec = getattr(sensors, name)
         lo, hi = from_si(np.array([spec.lo, spec.hi - spec.lsb]), name, units[name])
@@ -209,7 +211,7 @@ def _simulate(config: HydroMuscleDataset, spec: DynamicLog | FreeFallLog) -> Sim
     sensors = config.sensors_for(spec)
     n = round(spec.duration * sensors.rate)
     t = np.arange(1, n + 1) / sensors.rate
-    profile = Constant(value=0.0) if free_fall else spec.profile
+    profile = Constant(value=0.0) if isinstance(spec, FreeFallLog) else spec.profile
     effects = spec.built_effects()
     traj = _trajectory(config, spec, effects, t, profile.command(t - t[0], rng))
     rig = config.rig

@@ -158,8 +158,9 @@ def _substep(c: _Constants, F_app, dt, state):
     return x_new, v_new, stuck_new, clean & ~stuck & ~reversed_
 
 
-def _sample(c: _Constants, carry, inputs, substeps: int):
-    x, v, stuck, e_prev, d_prev = carry
+def _sample(params: _Constants, state, inputs, substeps: int):
+    c = params
+    x, v, stuck, e_prev, d_prev = state
     r_k, noise_k, ff_k = inputs
     counts = jnp.round((x + noise_k) / c.step)
     e = r_k - counts * c.step
