@@ -53,6 +53,7 @@ def _simulate(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     from hmid.io.units import UNIT_CACHE_VARIABLE
     from hmid.pipeline.compilation import use_compilation_cache
+    from hmid.progress import VARIABLE, Progress
     from hmid.workers import Tasks, allow_workers
 
     if Path(args.results).is_file():  # said before anything is made beside it
@@ -60,32 +61,46 @@ def _run(args: argparse.Namespace) -> int:
     use_compilation_cache(Path(args.results) / ".jax-cache")  # before a worker starts
     os.environ.setdefault(UNIT_CACHE_VARIABLE, str(Path(args.results) / ".unit-cache"))
     allow_workers()  # this program's main module is guarded: a spawned worker may import it
+    progress = Progress(quiet=args.quiet)
+    if progress.bars:  # before a worker starts: its bars (the SLS posterior's) read it
+        os.environ[VARIABLE] = "1"
     # the worker starts on what every run's families need while this process imports the same
     tasks = Tasks().start(("hmid.families",))
     from pipelines.identify import run, worker_imports
 
     tasks.start(worker_imports(Path(args.config)))
 
-    run_dir, metrics = run(Path(args.config), results=Path(args.results), force=args.force)
+    run_dir, metrics = run(
+        Path(args.config), results=Path(args.results), force=args.force, progress=progress
+    )
     print(console_summary(metrics))
     print(f"report: {run_dir / 'report.html'}")
     return 0
 
 
 def console_summary(metrics: dict) -> str:
-    """What a run found, in a few lines: the best model, the loop's verdict with its before and
-    after (model names, one-step held-out RMSE), and the sign check."""
+    """What a run found, in a few lines: the best model with its equation, parameters and
+    intervals, its margin over the runner-up, its free run and the rows it saw; the loop's
+    verdict with what it added and its before and after (one-step held-out RMSE); the sign
+    check."""
+    from hmid.pipeline.answer import console_lines
+
     unit = metrics["explained"]["unit"]
     best = metrics["held_out"][0]
-    rmse = best["rmse (held-out)"]
-    rmse_text = "n/a" if rmse is None else f"{rmse:.4g} {unit}"
-    lines = [
-        f"best model: {best['model']}, held-out RMSE {rmse_text} of "
-        f"{metrics['explained']['name']} ({best['error kind']})"
-    ]
+    if metrics.get("answer"):
+        lines = console_lines(metrics["answer"], unit, metrics["explained"]["name"])
+        lines[0] += f" ({best['error kind']})" if best["error kind"] != "one-step" else ""
+    else:
+        rmse = best["rmse (held-out)"]
+        rmse_text = "n/a" if rmse is None else f"{rmse:.4g} {unit}"
+        lines = [
+            f"best model: {best['model']}, held-out RMSE {rmse_text} of "
+            f"{metrics['explained']['name']} ({best['error kind']})"
+        ]
     loop = metrics.get("loop")
     if loop is not None:
-        added = ", ".join(e["name"] for e in loop["effects"]) or "nothing added"
+        added = ", ".join(e["name"] for e in loop["effects"])
+        added = f"added {added}" if added else "nothing added"
         before, after = loop["held_out_before"]["rmse"], loop["held_out_after"]["rmse"]
         lines.append(
             f"loop on {loop['base']}: {loop['verdict']} ({added}); held-out RMSE "
@@ -218,6 +233,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("config", type=Path, help="experiment config (YAML), e.g. configs/demo.yaml")
     p.add_argument("--results", default="results", help="results root folder (default: results)")
     p.add_argument("--force", action="store_true", help="recompute every stage, ignore the cache")
+    p.add_argument(
+        "--quiet", action="store_true", help="no progress (in a log: no line per stage either)"
+    )
     p.set_defaults(func=_run)
 
     p = sub.add_parser(

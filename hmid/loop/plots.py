@@ -38,9 +38,16 @@ def plot_whiteness(result: LoopResult, path: Path) -> None:
         ax.legend(fontsize=7)
         ax = axes[row, 2]
         freq, psd = d.spectrum
-        ax.semilogy(freq[1:], psd[1:], lw=1)
         ax.set(xlabel="frequency [Hz]", ylabel=f"PSD [({result.unit})²/Hz]",
                title=f"residual spectrum, {label}")  # fmt: skip
+        if len(freq) > 2:
+            ax.semilogy(freq[1:], psd[1:], lw=1)
+        else:  # _spectrum needs a stretch as long as one Welch segment
+            ax.set(xticks=[], yticks=[])
+            ax.text(0.5, 0.5, "no spectrum: no stretch of\n1024 consecutive fitted rows\n"
+                    "(excluded rows cut the residual\ninto shorter stretches)",
+                    ha="center", va="center", fontsize=8, color="0.35",
+                    transform=ax.transAxes)  # fmt: skip
     fig.savefig(path, dpi=110)
 
 

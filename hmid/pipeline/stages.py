@@ -203,10 +203,24 @@ class Rows:
     train: int
     validation: int
     excluded: int
+    edges: int = 0  # of the excluded: within a filter's reach of a piece's ends
 
 
 def rows(config: ExperimentConfig, split: Split) -> Rows:
-    return Rows(split.n_train, split.n_validation, split.excluded)
+    """The row counts, and how many rows the filters' edges take (the rest of the excluded rows
+    are stopped or slow motion): both ends of every piece, as :func:`signals` cuts them."""
+    from hmid.signal.reach import impulse_reach
+
+    smoother, differentiator = config.denoise.build()
+    t, edges = split.signals.frame["t"].to_numpy(), 0
+    for start, stop in split.signals.bounds():
+        piece = t[start:stop]
+        reach = impulse_reach(piece, smoother)
+        if config.rig.position is not None:
+            derivative = impulse_reach(piece, lambda t, y: differentiator.derivative(t, y, 1))
+            reach = max(reach, derivative)
+        edges += min(2 * reach, stop - start)
+    return Rows(split.n_train, split.n_validation, split.excluded, edges)
 
 
 def fit(
