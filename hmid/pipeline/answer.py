@@ -227,7 +227,7 @@ def free_run_text(found: dict) -> str | None:
     diverged = f", diverged in {f['diverged']} of {f['blocks']} blocks" if f["diverged"] else ""
     return (
         f"free run of {f['position']}: fit {f['fit_pct']:.1f} %, RMSE {_g(f['rmse_mm'])} mm "
-        f"over {f['blocks']} held-out blocks{diverged}"
+        f"over {f['blocks']} held-out block{'s' if f['blocks'] != 1 else ''}{diverged}"
     )
 
 
