@@ -88,8 +88,8 @@ def console_summary(metrics: dict) -> str:
     unit = metrics["explained"]["unit"]
     best = metrics["held_out"][0]
     if metrics.get("answer"):
-        lines = console_lines(metrics["answer"], unit, metrics["explained"]["name"])
-        lines[0] += f" ({best['error kind']})" if best["error kind"] != "one-step" else ""
+        lines = console_lines(metrics["answer"], unit, metrics["explained"]["name"],
+                              best["error kind"])  # fmt: skip
     else:
         rmse = best["rmse (held-out)"]
         rmse_text = "n/a" if rmse is None else f"{rmse:.4g} {unit}"

@@ -122,7 +122,7 @@ def plot_model(
 
 def plot_scores(scores: pd.DataFrame, path: Path, unit: str = "N") -> None:
     """Held-out RMSE and NRMSE fit of every model, side by side."""
-    fig = _figure(figsize=(10, 0.5 * len(scores) + 1.6))
+    fig = _figure(figsize=(10, 0.32 * len(scores) + 1.3))
     axes = fig.subplots(1, 2)
     names = scores["model"][::-1]
     axes[0].barh(names, scores["rmse (held-out)"][::-1], color="C0")

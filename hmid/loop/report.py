@@ -135,6 +135,8 @@ def loop_section(
             Table(
                 result.base_parameters,
                 f"{result.base_name}: its terms refitted by least squares, with intervals",
+                summary=f"{len(result.base_parameters)} parameters",
+                collapsed=True,
             ),
             Table(
                 tests,

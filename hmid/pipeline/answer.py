@@ -131,6 +131,7 @@ def answer(config, artifacts: dict, free_run: pd.DataFrame | None) -> dict:
             "rmse_mm": None if rmse is None else _number(row[rmse]),
             "blocks": int(row.get("free-run blocks", 0) or 0),
             "diverged": int(row.get("diverged", 0) or 0),
+            "note": str(row.get("note") or "") if pd.notna(row.get("note")) else "",
         }
     return out
 
@@ -222,8 +223,14 @@ def margin_text(found: dict, unit: str) -> str | None:
 
 def free_run_text(found: dict) -> str | None:
     f = found["free_run"]
-    if f is None or f["fit_pct"] is None:
+    if f is None:
         return None
+    if f["fit_pct"] is None:
+        if not f["diverged"]:
+            return None
+        why = f" ({f['note']})" if f.get("note") else ""
+        return (f"free run of {f['position']}: diverged in {f['diverged']} of {f['blocks']} "
+                f"held-out block{'s' if f['blocks'] != 1 else ''}{why}")  # fmt: skip
     diverged = f", diverged in {f['diverged']} of {f['blocks']} blocks" if f["diverged"] else ""
     return (
         f"free run of {f['position']}: fit {f['fit_pct']:.1f} %, RMSE {_g(f['rmse_mm'])} mm "
@@ -255,14 +262,28 @@ def rows_text(found: dict) -> str:
     return text
 
 
-def console_lines(found: dict, unit: str, label: str) -> list[str]:
+def equation_text(found: dict) -> str:
+    """The model's equation without the values it may append (``...; A = 1, B = 2``): the
+    parameters are listed beside it, with their intervals."""
+    equation = found["equation"]
+    names = {p["name"] for p in found["parameters"]}
+    head, _, tail = equation.partition("; ")
+    while tail:
+        rest, _, after = tail.partition("; ")
+        if rest.split(" = ")[0] in names:
+            return head
+        head, tail = f"{head}; {rest}", after
+    return equation
+
+
+def console_lines(found: dict, unit: str, label: str, kind: str = "one-step") -> list[str]:
     """The answer on the console: the model, its equation and parameters, the margin, the
     scores and the rows."""
     one = found["one_step"]
     lines = [
         f"best model: {found['model']}, held-out RMSE {_g(one['rmse'])} {unit} of {label} "
-        f"(one-step), R² {r2_text(one['r2'])}",
-        f"  {found['equation']}",
+        f"({kind}), R² {r2_text(one['r2'])}",
+        f"  {equation_text(found)}",
         *(f"  {line}" for line in parameter_lines(found)),
     ]  # fmt: skip
     for text in (margin_text(found, unit), free_run_text(found), rows_text(found)):

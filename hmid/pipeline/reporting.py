@@ -160,9 +160,13 @@ def _coefficient_keys(frame: pd.DataFrame) -> tuple[str, ...]:
     return tuple(c for i, c in enumerate(frame.columns) if i == 0 or str(c).startswith(keep))
 
 
-def _model_sections(fitted, out: _Folders) -> tuple[list[Section], list[tuple[Any, Path]]]:
-    """Each model's parameters and its family's extras; and the figures the families ask for,
-    with the file each is to be drawn to."""
+def _model_sections(
+    fitted, out: _Folders, scores: pd.DataFrame
+) -> tuple[list[Section], list[tuple[Any, Path]]]:
+    """Each model's parameters and its family's extras (the best model's open, the others on
+    request); and the figures the families ask for, with the file each is to be drawn to."""
+    rmse = dict(zip(scores["model"], scores["rmse (held-out)"], strict=True))
+    best = scores.iloc[0]["model"]
     sections, wanted = [], []
     for model in fitted:
         safe = model.name.replace(":", "_")
@@ -183,6 +187,8 @@ def _model_sections(fitted, out: _Folders) -> tuple[list[Section], list[tuple[An
         sections.append(
             Section(
                 model.name,
+                collapsed=model.name != best,
+                summary=f"held-out RMSE {rmse.get(model.name, np.nan):.4g}",
                 text=text,
                 tables=(
                     Table(
@@ -318,8 +324,12 @@ def _friction(config, artifacts, out: _Folders) -> tuple[tuple[Section, ...], tu
         "Rig friction from free-fall tests",
         text=f"Model: {config.friction.model}; sliding segments with |v| > "
         f"{config.friction.v_min} m/s.\n\n{_friction_text(estimate)}",
-        tables=(Table(table, "Friction per free-fall log and pooled"),),
-        figures=(Figure(figure, "Free-fall motion and fitted model"),),
+        tables=(
+            Table(
+                table, "Friction per free-fall log and pooled", key_columns=_friction_keys(table)
+            ),
+        ),
+        figures=(Figure(figure, "Free-fall motion and fitted model", collapsed=True),),
     )
     summary = tuple(
         (f"friction from free falls: {name}",
@@ -383,6 +393,7 @@ def _lead(config, found: dict, unit: str) -> str:
     """The answer first: the winning model, its equation and parameters, its margin over the
     runner-up, its free run and the rows it was scored on."""
     from hmid.pipeline.answer import (
+        equation_text,
         free_run_text,
         margin_text,
         parameter_lines,
@@ -394,7 +405,7 @@ def _lead(config, found: dict, unit: str) -> str:
     head = (f"**{found['model']}** predicts {config.rig.explained.name} best on held-out rows: "
             f"one-step RMSE **{one['rmse']:.4g} {unit}**, R² {r2_text(one['r2'])}")  # fmt: skip
     free = free_run_text(found)
-    parts = [head + (f"; {free}." if free else "."), f"`{found['equation']}`"]
+    parts = [head + (f"; {free}." if free else "."), f"`{equation_text(found)}`"]
     parts.append("\n".join(f"- {line}" for line in parameter_lines(found)))
     margin = margin_text(found, unit)
     if margin:
@@ -405,7 +416,7 @@ def _lead(config, found: dict, unit: str) -> str:
 
 #: The held-out scores a reader compares first (the page shows the rest behind a toggle).
 SCORE_KEYS = ("model", "error kind", "rmse (held-out)", "r2 (held-out)",
-              "nrmse_fit_pct (held-out)", "max_abs_error (held-out)", "rmse (train)")  # fmt: skip
+              "nrmse_fit_pct (held-out)", "max_abs_error (held-out)")  # fmt: skip
 
 
 def _comparison_section(config, artifacts, tables: _Tables, figures: list[Figure], out) -> Section:
@@ -434,9 +445,25 @@ def _comparison_section(config, artifacts, tables: _Tables, figures: list[Figure
     )
 
 
+def _friction_keys(frame: pd.DataFrame) -> tuple[str, ...]:
+    keep = ("log", "n", "RMSE", "τ_int")
+    return tuple(c for c in frame.columns if str(c).startswith(keep) or
+                 (str(c).startswith("F") and "load cell" not in str(c)))  # fmt: skip
+
+
 def _data_keys(frame: pd.DataFrame) -> tuple[str, ...]:
     keep = ("name", "role", "samples", "duration_s", "rate_hz", "peak_speed", "at_rest_fraction")
     return tuple(c for c in frame.columns if c in keep)
+
+
+def _logs_summary(data: pd.DataFrame) -> str:
+    roles = data["role"].value_counts() if "role" in data else pd.Series(dtype=int)
+    return f"{len(data)} logs: " + ", ".join(f"{n} {role}" for role, n in roles.items())
+
+
+def _logs_summary(data: pd.DataFrame) -> str:
+    roles = data["role"].value_counts(sort=False) if "role" in data else {}
+    return f"{len(data)} logs: " + ", ".join(f"{n} {role}" for role, n in roles.items())
 
 
 def _pieces_summary(pieces: pd.DataFrame) -> str:
@@ -471,11 +498,14 @@ def _data_section(artifacts, tables: _Tables) -> Section:
                 tables.data,
                 "Logs as loaded (SI, rig's sign convention) and denoised",
                 key_columns=_data_keys(tables.data),
+                summary=_logs_summary(tables.data),
+                collapsed=True,
             ),
             Table(
                 tables.pieces,
                 "Pieces between logger pauses (used: False where a piece is too short to filter)",
                 summary=_pieces_summary(tables.pieces),
+                collapsed=True,
             ),
         ),
     )
@@ -511,7 +541,9 @@ def write_outputs(
     out = _Folders.make(run_dir)
     units = log_units(config)
     tables = _tables(artifacts, units, out)
-    coefficient_sections, wanted = _model_sections(artifacts["fit"], out)
+    coefficient_sections, wanted = _model_sections(
+        artifacts["fit"], out, artifacts["compare"].scores
+    )
     model_figures = _draw(drawing, wanted, config, artifacts, units, out)
     loop_sections, metrics_loop = _loop(artifacts, out, drawing)
     friction_sections, friction_summary = _friction(config, artifacts, out)

@@ -142,10 +142,13 @@ class Section:
     tables: tuple[Table, ...] = ()
     figures: tuple[Figure, ...] = ()
     subsections: tuple[Section, ...] = ()
+    collapsed: bool = False  # the HTML page shows the heading (and summary), the rest on request
+    summary: str = ""
 
     def __post_init__(self) -> None:
         _check_str("Section", "title", self.title, nonempty=True)
         _check_str("Section", "text", self.text)
+        _check_str("Section", "summary", self.summary)
         _set(self, "tables", _as_tuple("Section", "tables", self.tables, Table))
         _set(self, "figures", _as_tuple("Section", "figures", self.figures, Figure))
         _set(self, "subsections", _as_tuple("Section", "subsections", self.subsections, Section))

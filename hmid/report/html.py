@@ -17,6 +17,7 @@ import hashlib
 import html
 import re
 import struct
+from dataclasses import replace
 from pathlib import Path
 
 from hmid.report._common import Cells, Entry, figure_file, section_text, table_cells, walk
@@ -39,7 +40,7 @@ h3 { font-size: 1.15rem; margin: 2rem 0 0.7rem; }
 h4, h5, h6 { font-size: 1rem; margin: 1.6rem 0 0.6rem; }
 .num { color: var(--muted); font-weight: 500; margin-right: 0.45em;
   font-variant-numeric: tabular-nums; }
-p, ul { margin: 0 0 0.9rem; max-width: 52rem; }
+p, ul { margin: 0 0 0.9rem; max-width: 60rem; }
 ul { padding-left: 1.4rem; }
 li { margin: 0.15rem 0; }
 code { font: 0.88em/1.4 ui-monospace, "SF Mono", Menlo, Consolas, "DejaVu Sans Mono", monospace;
@@ -74,6 +75,11 @@ details { margin: 1rem 0 1.4rem; }
 details > summary { cursor: pointer; font-size: 0.9rem; color: var(--muted); }
 details > summary .more, details.all-columns > summary { color: var(--accent); }
 details.all-columns { margin-top: -1rem; }
+details.section > summary { list-style: none; }
+details.section > summary > h3, details.section > summary > h4 { display: inline-block;
+  margin: 0.8rem 0 0.4rem; }
+details.section > summary::before { content: "▸ "; color: var(--accent); }
+details.section[open] > summary::before { content: "▾ "; }
 details > .table-wrap { margin-top: 0.6rem; }
 table { border-collapse: collapse; font-size: 0.9rem; font-variant-numeric: tabular-nums; }
 caption { caption-side: top; text-align: left; font-size: 0.9rem; color: var(--muted);
@@ -87,7 +93,7 @@ td.r { white-space: nowrap; }
 td { overflow-wrap: anywhere; }
 .label { font-weight: 600; color: var(--ink); margin-right: 0.3em; }
 figure { margin: 1.6rem 0 2rem; text-align: center; }
-figure img { display: block; max-width: min(100%, 56rem); height: auto; margin: 0 auto; }
+figure img { display: block; max-width: min(100%, 50rem); height: auto; margin: 0 auto; }
 figcaption { font-size: 0.9rem; color: var(--muted); margin-top: 0.55rem; max-width: 46rem;
   margin-left: auto; margin-right: auto; }
 footer.provenance { margin-top: 3rem; font-size: 0.85rem; color: var(--muted); }
@@ -287,27 +293,47 @@ def render_html(report: Report, run_dir: str | Path) -> str:
     if len(entries) > 1:
         out.append(_toc(entries))
     n_tables = n_figures = 0
-    depth = 0
+    closers: list[str] = []  # what closes each open section, deepest last
     for entry in entries:
-        while depth >= entry.depth:  # close finished sections, deepest first
-            out.append("</section>")
-            depth -= 1
-        depth = entry.depth
+        while len(closers) >= entry.depth:  # close finished sections, deepest first
+            out.append(closers.pop())
         section = entry.section
         level = min(entry.depth + 1, 6)
         out.append(f'<section id="{_anchor(entry.number)}">')
-        out.append(
-            f'<h{level}><span class="num">{entry.number}</span>{_e(section.title)}</h{level}>'
-        )
+        heading = f'<h{level}><span class="num">{entry.number}</span>{_e(section.title)}</h{level}>'
+        if section.collapsed:  # the heading opens it
+            more = f" {_e(section.summary)}" if section.summary else ""
+            out.append(f'<details class="section"><summary>{heading}<span class="more">'
+                       f"{more} (show)</span></summary>")  # fmt: skip
+            closers.append("</details></section>")
+        else:
+            out.append(heading)
+            closers.append("</section>")
         if section.text.strip():
             out.append(text_to_html(section.text))
         for table in section.tables:
             n_tables += 1
             out.append(_table(table, n_tables))
-        for figure in section.figures:
+        shown = [f for f in section.figures if not f.collapsed]
+        for figure in shown:
             n_figures += 1
             out.append(_figure(figure, n_figures, run_dir))
-    out += ["</section>"] * depth
+        hidden = [f for f in section.figures if f.collapsed]
+        if len(hidden) == 1:
+            n_figures += 1
+            out.append(_figure(hidden[0], n_figures, run_dir))
+        elif hidden:  # several on request: one line opens them all
+            first, n_figures = n_figures + 1, n_figures + len(hidden)
+            inner = "\n".join(
+                _figure(replace(f, collapsed=False), first + i, run_dir)
+                for i, f in enumerate(hidden)
+            )
+            out.append(
+                f'<details class="figure"><summary><span class="label">Figures {first}–'
+                f"{n_figures}.</span> {_e('; '.join(f.caption for f in hidden))} "
+                f'<span class="more">(show)</span></summary>\n{inner}\n</details>'
+            )
+    out += reversed(closers)
     if report.provenance:
         rows = "\n".join(
             f'<tr><th scope="row">{_e(k)}</th><td><code>{_e(v)}</code></td></tr>'
@@ -338,6 +364,9 @@ def _anchor(number: str) -> str:
 
 
 def _toc(entries: list[Entry]) -> str:
+    """The contents: every section but those collapsed (they open where they stand)."""
+    hidden = [e.number for e in entries if e.section.collapsed]
+    entries = [e for e in entries if not any(f"{e.number}.".startswith(f"{n}.") for n in hidden)]
     out = ['<nav class="toc" aria-label="Contents">', "<h2>Contents</h2>"]
     depth = 0
     for entry in entries:
