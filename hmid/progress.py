@@ -48,7 +48,7 @@ class Progress:
             from tqdm import tqdm
 
             self._bar = tqdm(total=len(names), desc=self.label, unit="stage", file=self.stream,
-                             bar_format="{desc}: {n}/{total} stages |{bar:20}| {elapsed} {postfix}",
+                             bar_format="{desc}: {n}/{total} stages |{bar:20}| {elapsed}{postfix}",
                              leave=False)  # fmt: skip
         return self
 
