@@ -2,6 +2,7 @@
 
 import errno
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -149,8 +150,17 @@ def _demo_copy(tmp_path):
     return config
 
 
+#: A stage's line in a log (stderr not a terminal): what ``hmid run`` says as it works.
+STAGE_LINE = re.compile(r"hmid run: \w+ \d+\.\d s( \(cached\))? \[\d+ s\]")
+
+
+def _said(err: str) -> list[str]:
+    """stderr's lines less the stages' progress lines."""
+    return [line for line in err.strip().splitlines() if not STAGE_LINE.fullmatch(line)]
+
+
 def _one_line(err: str) -> str:
-    lines = err.strip().splitlines()
+    lines = _said(err)
     assert len(lines) == 1, err
     return lines[0]
 
