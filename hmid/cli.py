@@ -53,6 +53,7 @@ def _simulate(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     from hmid.io.units import UNIT_CACHE_VARIABLE
     from hmid.pipeline.compilation import use_compilation_cache
+    from hmid.progress import VARIABLE, Progress
     from hmid.workers import Tasks, allow_workers
 
     if Path(args.results).is_file():  # said before anything is made beside it
@@ -62,6 +63,9 @@ def _run(args: argparse.Namespace) -> int:
     use_compilation_cache(Path(args.results) / ".jax-cache")  # before a worker starts
     os.environ.setdefault(UNIT_CACHE_VARIABLE, str(Path(args.results) / ".unit-cache"))
     allow_workers()  # this program's main module is guarded: a spawned worker may import it
+    progress = Progress(quiet=args.quiet)
+    if progress.bars:  # before a worker starts: its bars (the SLS posterior's) read it
+        os.environ[VARIABLE] = "1"
     # the worker starts on what every run's families need while this process imports the same
     tasks = Tasks().start(("hmid.families",))
     from pipelines.identify import run, worker_imports
@@ -69,7 +73,11 @@ def _run(args: argparse.Namespace) -> int:
     tasks.start(worker_imports(Path(args.config)))
 
     run_dir, metrics = run(
-        Path(args.config), results=Path(args.results), force=args.force, strict=args.strict
+        Path(args.config),
+        results=Path(args.results),
+        force=args.force,
+        strict=args.strict,
+        progress=progress,
     )
     print(console_summary(metrics))
     print(f"report: {run_dir / 'report.html'}")
@@ -89,33 +97,34 @@ def _utf8(what: str, path: Path) -> None:
 
 
 def console_summary(metrics: dict) -> str:
-    """What a run found, in a few lines: the best model, the loop's verdict with its before and
-    after (model names, one-step held-out RMSE), and the sign check."""
+    """What a run found, in a few lines: the best model with its equation, parameters and
+    intervals, its margin over the runner-up, its free run and the rows it saw; the loop's
+    verdict with what it added and its before and after (one-step held-out RMSE); the sign
+    check."""
+    from hmid.pipeline.answer import console_lines
+
     unit = metrics["explained"]["unit"]
     best = metrics["held_out"][0]
-    rmse = best["rmse (held-out)"]
-    rmse_text = "n/a" if rmse is None else f"{rmse:.4g} {unit}"
-    lines = [
-        f"best model: {best['model']}, held-out RMSE {rmse_text} of "
-        f"{metrics['explained']['name']} ({best['error kind']})"
-    ]
+    if metrics.get("answer"):
+        lines = console_lines(metrics["answer"], unit, metrics["explained"]["name"],
+                              best["error kind"])  # fmt: skip
+    else:
+        rmse = best["rmse (held-out)"]
+        rmse_text = "n/a" if rmse is None else f"{rmse:.4g} {unit}"
+        lines = [
+            f"best model: {best['model']}, held-out RMSE {rmse_text} of "
+            f"{metrics['explained']['name']} ({best['error kind']})"
+        ]
     loop = metrics.get("loop")
     if loop is not None:
-        added = ", ".join(e["name"] for e in loop["effects"]) or "nothing added"
+        added = ", ".join(e["name"] for e in loop["effects"])
+        added = f"added {added}" if added else "nothing added"
         before, after = loop["held_out_before"]["rmse"], loop["held_out_after"]["rmse"]
         lines.append(
             f"loop on {loop['base']}: {loop['verdict']} ({added}); held-out RMSE "
             f"{loop['base']} {before:.4g} -> {loop['after']} {after:.4g} {unit} (one-step)"
         )
         lines += [f"  {line}" for line in loop.get("final_model", ())]
-    free = {r["model"]: r for r in metrics.get("free_run") or ()}.get(best["model"])
-    if free is not None:
-        fit = next((v for k, v in free.items() if k.startswith("fit %")), None)
-        if fit is not None:
-            lines.append(
-                f"free run of {best['model']} on the held-out blocks: fit {fit:.1f} % of the "
-                "position (simulated from the inputs and the first state)"
-            )
     findings = metrics.get("sign_findings") or []
     if findings:
         names = ", ".join(f"{f['model']}: {f['parameter']}" for f in findings)
@@ -248,6 +257,9 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="a finding about the data (implausible units, stuck or clipped sensors, logs that "
         "give no rows) or a parameter's sign is an error (exit 2), not a warning",
+    )
+    p.add_argument(
+        "--quiet", action="store_true", help="no progress (in a log: no line per stage either)"
     )
     p.set_defaults(func=_run)
 

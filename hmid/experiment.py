@@ -147,7 +147,10 @@ class FrictionSection(_Frozen):
 class FitSection(_Frozen):
     """Which rows the balance is fitted on."""
 
-    exclude_stuck: bool = True  # static friction is indeterminate while the motion stops
+    #: leave out the rows where the motion stops or nearly does: static friction is
+    #: indeterminate there. None (the default): only on a rig that declares friction (a coulomb
+    #: or smooth_coulomb term, or one from: free_fall); resolved when the experiment is loaded
+    exclude_stuck: bool | None = None
     v_deadband: Annotated[float, Field(ge=0)] = 0.002  # m/s: below it the motion counts as stopped
 
 
@@ -201,6 +204,9 @@ class ExperimentConfig(_Frozen):
             )
         if self.loop is not None:
             self.loop.check(self.rig, names)
+        if self.fit.exclude_stuck is None:  # the low-speed rule is meant for friction
+            fit = self.fit.model_copy(update={"exclude_stuck": self.rig.declares_friction})
+            object.__setattr__(self, "fit", fit)  # resolved once, before anything reads it
         return self
 
     def logs_with_role(self, role: str) -> tuple[LogEntry, ...]:

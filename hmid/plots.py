@@ -28,6 +28,24 @@ def _held_out_time(frame: pd.DataFrame) -> tuple[np.ndarray, list[tuple[float, s
     return t_axis, marks
 
 
+def _stretches(frame: pd.DataFrame) -> np.ndarray:
+    """Each row's stretch of consecutive held-out rows: a new one where the log changes or the
+    time steps over excluded rows (more than 1.5 sampling intervals)."""
+    t = frame["t"].to_numpy(float)
+    log = frame["log"].astype(str).to_numpy()
+    dt = np.diff(t)
+    step = np.median(dt[dt > 0]) if np.any(dt > 0) else np.inf
+    new = np.concatenate([[True], (log[1:] != log[:-1]) | (dt > 1.5 * step) | (dt < 0)])
+    return np.cumsum(new)
+
+
+def _gapped(keep: np.ndarray, stretch: np.ndarray, *columns: np.ndarray) -> list[np.ndarray]:
+    """The ``keep`` rows of each column with NaN between rows of different stretches, so a line
+    never bridges excluded rows."""
+    cut = np.flatnonzero(np.diff(stretch[keep]) != 0) + 1
+    return [np.insert(c[keep].astype(float), cut, np.nan) for c in columns]
+
+
 #: points per time-series panel: a figure 11 inches wide shows no more (min and max per bin
 #: keep every peak, so a decimated trace looks like the full one)
 PANEL_POINTS = 4000
@@ -59,18 +77,14 @@ def plot_model(
     y, y_hat = frame["target"].to_numpy(), frame[model].to_numpy()
     residual = y - y_hat
     t_axis, marks = _held_out_time(frame)
+    stretch = _stretches(frame)
     keep = np.union1d(envelope(y), envelope(y_hat))
     fig = _figure(figsize=(11, 6.5))
     grid = fig.add_gridspec(2, 3)
     ax = fig.add_subplot(grid[0, :])
     ax.plot(t_axis[keep], y[keep], ".", ms=1.5, color="0.55", label=f"measured {label}")
-    if f"{model} lower" in frame:
-        band = np.union1d(envelope(frame[f"{model} lower"].to_numpy()),
-                          envelope(frame[f"{model} upper"].to_numpy()))  # fmt: skip
-        ax.fill_between(t_axis[band], frame[f"{model} lower"].to_numpy()[band],
-                        frame[f"{model} upper"].to_numpy()[band], color="C0", alpha=0.25, lw=0,
-                        label="posterior predictive band")  # fmt: skip
-    ax.plot(t_axis[keep], y_hat[keep], "-", lw=0.8, color="C0", label=f"{model} (one-step)")
+    ax.plot(*_gapped(keep, stretch, t_axis, y_hat), "-", lw=0.8, color="C0",
+            label=f"{model} (one-step)")  # fmt: skip
     for start, name in marks:
         ax.axvline(start, color="0.8", lw=0.8)
         ax.text(start, ax.get_ylim()[1], f" {name}", va="top", fontsize=7, color="0.4")
@@ -80,6 +94,14 @@ def plot_model(
     ax.legend(loc="lower right", fontsize=8)
     ax = fig.add_subplot(grid[1, 0])
     rows = envelope(residual)
+    if f"{model} lower" in frame:  # the band around the prediction: visible at the residual's
+        # scale, where at the measured quantity's it is thinner than the line
+        lower = frame[f"{model} lower"].to_numpy() - y_hat
+        upper = frame[f"{model} upper"].to_numpy() - y_hat
+        band = np.union1d(envelope(lower), envelope(upper))
+        ax.fill_between(*_gapped(band, stretch, t_axis, lower, upper), color="C0", alpha=0.35,
+                        lw=0, label="predictive band − prediction")  # fmt: skip
+        ax.legend(loc="lower right", fontsize=7)
     ax.plot(t_axis[rows], residual[rows], ".", ms=1, color="C3")
     ax.axhline(0, color="k", lw=0.6)
     ax.set(xlabel="held-out time [s]", ylabel=f"residual [{unit}]")
@@ -100,7 +122,7 @@ def plot_model(
 
 def plot_scores(scores: pd.DataFrame, path: Path, unit: str = "N") -> None:
     """Held-out RMSE and NRMSE fit of every model, side by side."""
-    fig = _figure(figsize=(10, 0.5 * len(scores) + 1.6))
+    fig = _figure(figsize=(10, 0.32 * len(scores) + 1.3))
     axes = fig.subplots(1, 2)
     names = scores["model"][::-1]
     axes[0].barh(names, scores["rmse (held-out)"][::-1], color="C0")

@@ -242,11 +242,16 @@ class Tasks:
         else:
             task.future = _finished(task.here())
 
-    def results(self) -> list[Any]:
+    @property
+    def queued(self) -> int:
+        """Tasks submitted whose results are not yet collected."""
+        return len(self._tasks)
+
+    def results(self, step: Callable[[], Any] | None = None) -> list[Any]:
         """Every task's result, in the order submitted. The caller runs the tasks held back
         (first to last, handing out more as workers free up), then what no worker has begun
         (from the last submitted back), then waits for the rest; a task whose worker died is
-        run here. The queue is empty afterwards."""
+        run here. The queue is empty afterwards. ``step()`` is called as each result is in."""
         tasks, self._tasks = self._tasks, []
         while True:
             self._hand_out(tasks)
@@ -265,6 +270,8 @@ class Tasks:
             except BrokenProcessPool:
                 self._broken()
                 out.append(task.here())
+            if step is not None:
+                step()
         return out
 
     def _hand_out(self, tasks: list[_Task]) -> None:

@@ -3,6 +3,7 @@ then tables, figures, metrics and the report in a new run folder."""
 
 from __future__ import annotations
 
+import time
 import warnings
 from functools import partial
 from pathlib import Path
@@ -133,10 +134,16 @@ def _imports(families) -> tuple[str, ...]:
 
 
 def run(
-    config_path: Path, *, results: Path = Path("results"), force: bool = False, strict=False
+    config_path: Path,
+    *,
+    results: Path = Path("results"),
+    force: bool = False,
+    strict=False,
+    progress=None,
 ) -> tuple[Path, dict]:
     """Run the study; returns the new run folder and the metrics. ``strict``: a finding about
-    the data or a sign is an error (the folder is marked failed)."""
+    the data or a sign is an error (the folder is marked failed). ``progress`` (a
+    :class:`hmid.progress.Progress`) shows the stages, the report's among them."""
     config = load_experiment(config_path)
     inputs = [config.resolve(p) for e in config.logs for p in (e.path, e.columns)]
     resolved = config_json(config)
@@ -146,8 +153,14 @@ def run(
         workers = Tasks().start(_imports(type(spec) for spec in config.models))
         later = (*(LOOP_MODULES if config.loop else ()), *FIGURE_MODULES)
         runner = Runner(Path(results) / config.name / ".cache", force=force)
+        if progress is not None:
+            progress.stages([*(stage.name for stage in STAGES), "report"])
         artifacts = runner.run(
-            STAGES, config, keep=REPORTED, before={"compare": partial(workers.start, later)}
+            STAGES,
+            config,
+            keep=REPORTED,
+            before={"compare": partial(workers.start, later)},
+            progress=progress,
         )
         folder.manifest.stages = {name: r.wall_s for name, r in runner.records.items()}
         folder.manifest.cache = {name: r.cached for name, r in runner.records.items()}
@@ -159,7 +172,14 @@ def run(
         for message in said:  # said on every run, the cached ones too
             warnings.warn(message, HmidWarning, stacklevel=2)
         with folder.manifest.stage("report"):
-            metrics = write_outputs(config, artifacts, folder.path, folder.provenance(), workers)
+            if progress is not None:
+                progress.started("report")
+            start = time.perf_counter()
+            metrics = write_outputs(config, artifacts, folder.path, folder.provenance(), workers,
+                                    progress)  # fmt: skip
+            if progress is not None:
+                progress.done("report", time.perf_counter() - start, None)
+                progress.close()
         write_json(folder.path / "timings.json", timings(runner, artifacts))
     return folder.path, metrics
 

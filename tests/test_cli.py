@@ -3,6 +3,7 @@
 import errno
 import json
 import os
+import re
 import shutil
 from pathlib import Path
 
@@ -124,14 +125,22 @@ def test_blind_prints_the_pass_marks_and_exits_by_them(tmp_path, capsys):
     assert list((tmp_path / "results" / "tiny").glob("*/blind.md"))
 
 
-def test_run_prints_the_best_model_and_the_loop_with_model_names(tmp_path, capsys):
+def test_run_prints_the_answer_and_the_loop_with_model_names(tmp_path, capsys):
     assert main(["run", str(ROOT / "configs/linear-motor.yaml"), "--results", str(tmp_path)]) == 0
-    lines = capsys.readouterr().out.splitlines()
+    out = capsys.readouterr()
+    lines = out.out.splitlines()
     assert (
         lines[0].startswith("best model: balance, held-out RMSE ") and "of u (one-step)" in lines[0]
     )
-    assert lines[1].startswith("loop on balance: ") and "balance" in lines[1].split("RMSE")[1]
+    assert lines[1].strip().startswith("u = ")  # the equation, then each parameter
+    assert lines[2].strip().startswith("M = ") and "kg (95 % interval " in lines[2]
+    assert any(line.startswith("free run of x: fit ") for line in lines)
+    assert any(" left out (" in line for line in lines)
+    loop = next(line for line in lines if line.startswith("loop on balance: "))
+    assert "balance" in loop.split("RMSE")[1]
     assert lines[-1].startswith("report: ") and lines[-1].endswith("report.html")
+    # not a terminal: one line per stage on stderr, no bars
+    assert "hmid run: fit " in out.err and "hmid run: report " in out.err and "\r" not in out.err
 
 
 def _demo_copy(tmp_path):
@@ -142,8 +151,17 @@ def _demo_copy(tmp_path):
     return config
 
 
+#: A stage's line in a log (stderr not a terminal): what ``hmid run`` says as it works.
+STAGE_LINE = re.compile(r"hmid run: \w+ \d+\.\d s( \(cached\))? \[\d+ s\]")
+
+
+def _said(err: str) -> list[str]:
+    """stderr's lines less the stages' progress lines."""
+    return [line for line in err.strip().splitlines() if not STAGE_LINE.fullmatch(line)]
+
+
 def _one_line(err: str) -> str:
-    lines = err.strip().splitlines()
+    lines = _said(err)
     assert len(lines) == 1, err
     return lines[0]
 

@@ -241,6 +241,12 @@ class RigSection(_Frozen):
         )
 
     @property
+    def declares_friction(self) -> bool:
+        """Whether a term models friction (a Coulomb law, smooth or from the free falls): what
+        the low-speed rule of ``fit.exclude_stuck`` is meant for."""
+        return any(isinstance(t, CoulombTerm | SmoothCoulombTerm) for t in self.balance)
+
+    @property
     def resolved_friction_sign(self) -> int | None:
         """+1 if friction enters the explained quantity as +f (a motor force balancing it), -1 as
         -f (a load cell behind the friction): declared by the Coulomb terms or ``friction_sign``."""

@@ -206,8 +206,24 @@ class SLSFitted(FittedModel):
         lower, upper = np.quantile(data.slot_sign * noisy, [tail, 1.0 - tail], axis=1)
         return lower, upper
 
+    def _corner(self) -> FigureSpec:
+        """The corner plot in physical units (a simulator's truth marked where the report
+        knows one)."""
+        from hmid.models.sls.diagnostics import CORNER_DRAWS, physical_corner_plot
+
+        draws = {k: v.ravel() for k, v in self.posterior_draws().items()}
+        n = len(next(iter(draws.values())))
+        if n > CORNER_DRAWS:  # thinned here: only what is drawn goes to the worker
+            keep = np.linspace(0, n - 1, CORNER_DRAWS).astype(int)
+            draws = {k: v[keep] for k, v in draws.items()}
+        space = self.model.space
+        units = dict(zip(space.physical_names, space.units, strict=True))
+        return FigureSpec(physical_corner_plot, (draws, units), "corner.png",
+                          "Posterior corner plot in physical units (5, 50 and 95 % quantiles)",
+                          dear=True, takes_truth=True)  # fmt: skip
+
     def report_extras(self) -> Extras:
-        from hmid.models.sls.diagnostics import corner_plot, trace_plot
+        from hmid.models.sls.diagnostics import trace_plot
 
         r = self.result  # the corner plot, the dearest, is among the first drawn
         if self.method == "exact":
@@ -227,9 +243,7 @@ class SLSFitted(FittedModel):
                     FigureSpec(
                         grid_plot, (self.grid,), "grid.png", "Marginal posterior on the grid"
                     ),
-                    FigureSpec(
-                        corner_plot, (r,), "corner.png", "Posterior corner plot (draws)", dear=True
-                    ),
+                    self._corner(),
                 ],
             )
         diag = pd.DataFrame(
@@ -259,12 +273,6 @@ class SLSFitted(FittedModel):
             ],
             figures=[
                 FigureSpec(trace_plot, (r,), "trace.png", "Trace of every walker (burn-in shaded)"),
-                FigureSpec(
-                    corner_plot,
-                    (r,),
-                    "corner.png",
-                    "Posterior corner plot (sampled coordinates)",
-                    dear=True,
-                ),
+                self._corner(),
             ],
         )

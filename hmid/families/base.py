@@ -118,13 +118,15 @@ class FigureSpec:
     ``path``, which the runner chooses (``figures/<model>_<file>``), drawing it where it likes
     (in a worker: ``draw`` a module-level function, ``args`` picklable). ``dear``: among the
     first drawn (e.g. a corner plot of thousands of draws), so that a worker begins it while
-    the run does the rest."""
+    the run does the rest. ``takes_truth``: ``draw`` accepts ``truths=`` (parameter name ->
+    known value), which the runner passes where the logs come with a simulator's truth."""
 
     draw: Callable[..., Any]
     args: tuple
     file: str
     caption: str
     dear: bool = False
+    takes_truth: bool = False
 
     def __post_init__(self) -> None:
         if not self.file.endswith(".png") or Path(self.file).name != self.file:

@@ -42,14 +42,14 @@ def plot_whiteness(result: LoopResult, path: Path) -> None:
         ax.legend(fontsize=7)
         ax = axes[row, 2]
         freq, psd = d.spectrum
-        if len(freq) > 1:
+        ax.set(xlabel="frequency [Hz]", ylabel=f"PSD [({result.unit})²/Hz]",
+               title=f"residual spectrum, {label}")  # fmt: skip
+        if len(freq) > 2:
             ax.semilogy(freq[1:], psd[1:], lw=1)
         else:  # an empty panel says why in its place
             _empty(ax, f"no spectrum: it needs {SPECTRUM_ROWS:,} consecutive usable training "
                    "rows,\nand no run of them is as long here (motion stops and reversals\n"
                    "cut the logs)")  # fmt: skip
-        ax.set(xlabel="frequency [Hz]", ylabel=f"PSD [({result.unit})²/Hz]",
-               title=f"residual spectrum, {label}")  # fmt: skip
     fig.savefig(path, dpi=110)
 
 

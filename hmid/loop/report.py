@@ -145,20 +145,50 @@ def loop_section(
             Table(
                 result.base_parameters,
                 f"{result.base_name}: its terms refitted by least squares, with intervals",
+                summary=f"{len(result.base_parameters)} parameters",
+                collapsed=True,
             ),
-            Table(tests, "Every candidate tested, per round"),
-            Table(diag, "Residual diagnostics on training rows"),
+            Table(
+                tests,
+                "Every candidate tested, per round",
+                key_columns=_keys(tests, TEST_KEYS),
+                summary=f"{len(tests)} tests of candidate effects",
+                collapsed=True,
+            ),
+            Table(
+                diag,
+                "Residual diagnostics on training rows",
+                key_columns=_keys(diag, DIAGNOSTIC_KEYS),
+            ),
             *hint_tables,
         ),
-        figures=(
-            Figure(figures / f"{prefix}_structure.png", "Where the residual's structure is"),
+        figures=(  # nothing added: the figures show what the tests found, on request
             Figure(
-                figures / f"{prefix}_whiteness.png", "Whiteness and independence, before and after"
+                figures / f"{prefix}_structure.png",
+                "Where the residual's structure is",
+                collapsed=not result.effects,
+            ),
+            Figure(
+                figures / f"{prefix}_whiteness.png",
+                "Whiteness and independence, before and after",
+                collapsed=not result.effects,
             ),
         ),
         subsections=effect_sections,
     )
     return section, metrics(result)
+
+
+#: The columns of the tests and the diagnostics a reader reads first (the page shows the rest
+#: behind a toggle; the CSV has them all).
+TEST_KEYS = ("round", "candidate", "F", "p (Holm)", "ΔBIC", "passes training", "CV change",
+             "selected", "added")  # fmt: skip
+DIAGNOSTIC_KEYS = ("residual", "RMS train", "τ_int", "Ljung-Box p", "max |ACF|",
+                   "strongest signal", "η² (cross-fitted)")  # fmt: skip
+
+
+def _keys(frame, wanted: tuple[str, ...]) -> tuple[str, ...]:
+    return tuple(c for c in frame.columns if isinstance(c, str) and c.startswith(wanted))
 
 
 def _effect_section(e: Effect, prefix: str, write_csv) -> Section:

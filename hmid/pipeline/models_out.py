@@ -63,12 +63,23 @@ def free_run_section(config, free_runs: dict, units, out, drawing):
     section = Section(
         "Free run on held-out data",
         text=text,
-        tables=(Table(table, "Free-run scores per model (held-out blocks)"),),
+        tables=(
+            Table(
+                table,
+                "Free-run scores per model (held-out blocks)",
+                key_columns=_free_run_keys(table),
+            ),
+        ),
         figures=(Figure(figure, "Measured and simulated position, the longest held-out blocks"),)
         if simulated
         else (),
     )
     return section, table
+
+
+def _free_run_keys(table: pd.DataFrame) -> tuple[str, ...]:
+    keep = ("model", "fit %", "rmse", "band coverage", "diverged", "note")
+    return tuple(c for c in table.columns if c.startswith(keep) and "explained" not in c)
 
 
 def free_run_table(free_runs: dict, unit: str, position: str | None) -> pd.DataFrame:
@@ -104,16 +115,21 @@ def plot_free_runs(free_runs: dict, path: Path, label: str, unit: str) -> Path:
     if not runs:
         return path
     order = sorted(range(len(runs[0].runs)), key=lambda i: -len(runs[0].runs[i].t))[:3]
-    fig, axes = plt.subplots(len(order), 1, figsize=(9, 2.6 * len(order)), squeeze=False)
+    fig, axes = plt.subplots(len(order), 1, figsize=(9, 2.2 * len(order)), squeeze=False)
     for ax, i in zip(axes[:, 0], order, strict=True):
         block = runs[0].runs[i]
         ax.plot(block.t, 1e3 * block.x_measured, color="black", lw=1.4, label="measured")
+        # the measured range with a margin: a model that leaves it (and its band) is cut
+        # off at the edge rather than squashing the others into a line
+        low, high = np.nanmin(1e3 * block.x_measured), np.nanmax(1e3 * block.x_measured)
+        margin = 0.25 * (high - low) or 1.0
         for run in runs:
             sim = run.runs[i]
             (line,) = ax.plot(sim.t, 1e3 * sim.x_simulated, lw=0.9, label=run.model)
             if sim.band is not None:
                 lower, upper = (1e3 * b for b in sim.band)
                 ax.fill_between(sim.t, lower, upper, color=line.get_color(), alpha=0.25, lw=0)
+        ax.set_ylim(low - margin, high + margin)
         ax.set_ylabel("position [mm]")
         ax.set_title(f"{block.log}: free run from {block.t[0]:.2f} s", fontsize=9)
     axes[-1, 0].set_xlabel("t [s]")

@@ -4,6 +4,7 @@ and the report document (Markdown + self-contained HTML)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +13,7 @@ import pandas as pd
 
 from hmid.experiment import log_units
 from hmid.files import atomic_path, write_json
+from hmid.pipeline.answer import answer, r2_text
 from hmid.plots import plot_model, plot_scores
 from hmid.report import Figure, Report, Section, Table, write_report
 
@@ -31,7 +33,7 @@ def _csv(frame: pd.DataFrame, path: Path) -> Path:
 
 
 def _fit_table(artifacts, unit: str) -> pd.DataFrame:
-    """Thesis Table 4.1 for this run: training fit and held-out error per model."""
+    """Training fit and held-out error per model (the thesis's Table 4.1, on its own rig)."""
     scores = artifacts["compare"].scores.set_index("model")
     rows = []
     for model in artifacts["fit"]:
@@ -59,7 +61,7 @@ def _verdict(best) -> str:
     # R² as a number (a rounded "100 %" beside "unexplained structure" reads as a
     # contradiction); whether structure remains is the loop's to say, once
     if r2 >= R2_ACCEPT:
-        return f"{best['model']}: held-out R² {r2:.4f} (accepted at {R2_ACCEPT})"
+        return f"accepted: {best['model']}'s held-out R² {r2_text(r2)} ≥ {R2_ACCEPT}"
     return (
         f"no model reaches R² {R2_ACCEPT} on held-out data (best {r2:.4f}); these families may "
         "lack a physical effect (e.g. viscoelastic memory): see the residuals"
@@ -165,9 +167,20 @@ def _rig_section(config, units) -> Section:
                    tables=(Table(pd.DataFrame(terms), "Terms of the balance"),))  # fmt: skip
 
 
-def _model_sections(fitted, out: _Folders) -> tuple[list[Section], list[tuple[Any, Path]]]:
-    """Each model's parameters and its family's extras; and the figures the families ask for,
-    with the file each is to be drawn to."""
+def _coefficient_keys(frame: pd.DataFrame) -> tuple[str, ...]:
+    """A coefficient table's name, value, interval and unit (the method and calibration, the
+    same on every row, are said in the full table)."""
+    keep = ("value", "median", "std. error", "std_err", "ci_", "lower", "upper", "unit")
+    return tuple(c for i, c in enumerate(frame.columns) if i == 0 or str(c).startswith(keep))
+
+
+def _model_sections(
+    fitted, out: _Folders, scores: pd.DataFrame
+) -> tuple[list[Section], list[tuple[Any, Path]]]:
+    """Each model's parameters and its family's extras (the best model's open, the others on
+    request); and the figures the families ask for, with the file each is to be drawn to."""
+    rmse = dict(zip(scores["model"], scores["rmse (held-out)"], strict=True))
+    best = scores.iloc[0]["model"]
     sections, wanted = [], []
     for model in fitted:
         safe = model.name.replace(":", "_")
@@ -185,19 +198,44 @@ def _model_sections(fitted, out: _Folders) -> tuple[list[Section], list[tuple[An
             for spec in extras.figures:
                 path = out.figures / f"{safe}_{spec.file}"
                 wanted.append((spec, path))
-                extra_figures.append(Figure(path, spec.caption))
+                extra_figures.append(Figure(path, spec.caption, collapsed=True))
         sections.append(
             Section(
                 model.name,
+                collapsed=model.name != best,
+                summary=f"held-out RMSE {rmse.get(model.name, np.nan):.4g}",
                 text=text,
                 tables=(
-                    Table(coefficients, f"Parameters of {model.name}: units and intervals"),
+                    Table(
+                        coefficients,
+                        f"Parameters of {model.name}: units and intervals",
+                        key_columns=_coefficient_keys(coefficients),
+                    ),
                     *extra_tables,
                 ),
                 figures=tuple(extra_figures),
             )
         )
     return sections, wanted
+
+
+def simulator_truths(config) -> dict:
+    """The simulator's rig as its truth files state it (``<log>.truth.json``, which ``hmid
+    simulate`` writes beside each log): their ``rig`` section where every dynamic log has one
+    and they agree; empty otherwise."""
+    import json
+
+    found: list = []
+    for entry in config.logs_with_role("dynamic"):
+        path = config.resolve(entry.path).with_suffix(".truth.json")
+        try:
+            rig = json.loads(path.read_text(encoding="utf-8")).get("rig")
+        except (OSError, ValueError, AttributeError):
+            return {}
+        if not isinstance(rig, dict) or (found and rig != found[0]):
+            return {}
+        found.append(rig)
+    return found[0] if found else {}
 
 
 #: What a worker draws with (a light module: the same plot for every model)
@@ -261,18 +299,22 @@ def _draw(drawing, wanted, config, artifacts, units, out: _Folders) -> list[Figu
     (a posterior's corner plot) before the rest, so that a worker begins them while this
     process, once done with the tables, takes back the cheap ones from the end. Returns the
     comparison's figures of each model."""
+    truths = simulator_truths(config)
     for spec, path in sorted(wanted, key=lambda item: not item[0].dear):  # stable
-        drawing.submit(spec.draw, *spec.args, path)
+        draw = partial(spec.draw, truths=truths) if spec.takes_truth and truths else spec.draw
+        drawing.submit(draw, *spec.args, path)
     comparison = artifacts["compare"]
     drawing.submit(plot_scores, comparison.scores, out.figures / "scores.png", units["target"])
-    figures = []
+    figures, best = [], comparison.scores.iloc[0]["model"]
     for model in artifacts["fit"]:
         path = out.figures / f"model_{model.name.replace(':', '_')}.png"
         shown = [c for c in comparison.predictions if c in _shown(model.name)]
         drawing.submit(plot_model, comparison.predictions[shown], model.name, path,
                        config.rig.explained.name, units["target"])  # fmt: skip
-        figures.append(Figure(path, f"{model.name} on held-out data (one-step error)"))
-    return figures
+        figures.append(Figure(path, f"{model.name} on held-out data (one-step error)",
+                              collapsed=model.name != best))  # fmt: skip
+    # the best model's first: the others are shown on request
+    return sorted(figures, key=lambda f: f.collapsed)
 
 
 def _loop(config, artifacts, out: _Folders, drawing) -> tuple[tuple[Section, ...], dict | None]:
@@ -305,8 +347,12 @@ def _friction(config, artifacts, out: _Folders) -> tuple[tuple[Section, ...], tu
         "Rig friction from free-fall tests",
         text=f"Model: {config.friction.model}; sliding segments with |v| > "
         f"{config.friction.v_min} m/s.\n\n{_friction_text(estimate)}",
-        tables=(Table(table, "Friction per free-fall log and pooled"),),
-        figures=(Figure(figure, "Free-fall motion and fitted model"),),
+        tables=(
+            Table(
+                table, "Friction per free-fall log and pooled", key_columns=_friction_keys(table)
+            ),
+        ),
+        figures=(Figure(figure, "Free-fall motion and fitted model", collapsed=True),),
     )
     summary = tuple(
         (f"friction from free falls: {name}",
@@ -351,13 +397,9 @@ def _data_findings(artifacts) -> tuple:
 
 
 def _summary(config, artifacts, unit: str, friction_summary: tuple) -> tuple:
-    """The report's opening lines: the best model, its held-out errors, the verdict and what
-    else the run found."""
-    best, label, rows = (
-        artifacts["compare"].scores.iloc[0],
-        config.rig.explained.name,
-        artifacts["rows"],
-    )
+    """The report's key facts after the answer: the rig, the held-out scores, the verdict and
+    what else the run found."""
+    best = artifacts["compare"].scores.iloc[0]
     findings = _findings(artifacts)
     data = _data_findings(artifacts)
     data_summary = (("⚠ data plausibility", "; ".join(f.message() for f in data)),) if data else ()
@@ -373,11 +415,9 @@ def _summary(config, artifacts, unit: str, friction_summary: tuple) -> tuple:
         )  # fmt: skip
     return (
         ("rig", config.rig.name),
-        ("best model (lowest held-out RMSE)", str(best["model"])),
-        (f"held-out RMSE of {label}, one-step", f"{best['rmse (held-out)']:.4g} {unit}"),
         (
-            "held-out R² / NRMSE fit",
-            f"{best['r2 (held-out)']:.3f} / {best['nrmse_fit_pct (held-out)']:.1f} %",
+            "held-out R² / NRMSE fit (one-step)",
+            f"{r2_text(best['r2 (held-out)'])} / {best['nrmse_fit_pct (held-out)']:.1f} %",
         ),
         ("held-out max |error|", f"{best['max_abs_error (held-out)']:.4g} {unit}"),
         ("verdict", _verdict(best)),
@@ -385,12 +425,38 @@ def _summary(config, artifacts, unit: str, friction_summary: tuple) -> tuple:
         *sign_summary,
         *failed_summary,
         *friction_summary,
-        (
-            "rows: train / held-out / excluded",
-            f"{rows.train} / {rows.validation} / {rows.excluded}",
-        ),
         *loop_summary(artifacts.get("loop"), verdict),
     )
+
+
+def _lead(config, found: dict, unit: str) -> str:
+    """The answer first: the winning model, its equation and parameters, its margin over the
+    runner-up, its free run and the rows it was scored on."""
+    from hmid.pipeline.answer import (
+        equation_text,
+        free_run_text,
+        margin_text,
+        parameter_lines,
+        r2_text,
+        rows_text,
+    )
+
+    one = found["one_step"]
+    head = (f"**{found['model']}** predicts {config.rig.explained.name} best on held-out rows: "
+            f"one-step RMSE **{one['rmse']:.4g} {unit}**, R² {r2_text(one['r2'])}")  # fmt: skip
+    free = free_run_text(found)
+    parts = [head + (f"; {free}." if free else "."), f"`{equation_text(found)}`"]
+    parts.append("\n".join(f"- {line}" for line in parameter_lines(found)))
+    margin = margin_text(found, unit)
+    if margin:
+        parts.append(margin[0].upper() + margin[1:] + ".")
+    parts.append(rows_text(found)[0].upper() + rows_text(found)[1:] + ".")
+    return "\n\n".join(parts)
+
+
+#: The held-out scores a reader compares first (the page shows the rest behind a toggle).
+SCORE_KEYS = ("model", "error kind", "rmse (held-out)", "r2 (held-out)",
+              "nrmse_fit_pct (held-out)", "max_abs_error (held-out)")  # fmt: skip
 
 
 def _comparison_section(config, artifacts, tables: _Tables, figures: list[Figure], out) -> Section:
@@ -407,14 +473,53 @@ def _comparison_section(config, artifacts, tables: _Tables, figures: list[Figure
         "measured position alone, never from the measured force; free-run simulations, "
         "where a family has them, are in its own section.",
         tables=(
-            Table(artifacts["compare"].scores, "Held-out errors per model (sorted by RMSE)"),
             Table(
-                tables.fit, "Table 4.1 for this run: fit on training rows, error on held-out rows"
+                artifacts["compare"].scores,
+                "Held-out errors per model (sorted by RMSE)",
+                key_columns=SCORE_KEYS,
             ),
+            Table(tables.fit, _fit_caption(config), key_columns=_fit_keys(tables.fit)),
             *findings,
         ),
         figures=(Figure(out.figures / "scores.png", "Held-out RMSE and NRMSE fit"), *figures),
     )
+
+
+def _friction_keys(frame: pd.DataFrame) -> tuple[str, ...]:
+    keep = ("log", "n", "RMSE", "τ_int")
+    return tuple(c for c in frame.columns if str(c).startswith(keep) or
+                 (str(c).startswith("F") and "load cell" not in str(c)))  # fmt: skip
+
+
+def _data_keys(frame: pd.DataFrame) -> tuple[str, ...]:
+    keep = ("name", "role", "samples", "duration_s", "rate_hz", "peak_speed", "at_rest_fraction")
+    return tuple(c for c in frame.columns if c in keep)
+
+
+def _logs_summary(data: pd.DataFrame) -> str:
+    roles = data["role"].value_counts() if "role" in data else pd.Series(dtype=int)
+    return f"{len(data)} logs: " + ", ".join(f"{n} {role}" for role, n in roles.items())
+
+
+def _pieces_summary(pieces: pd.DataFrame) -> str:
+    unused = int((~pieces["used"].astype(bool)).sum()) if "used" in pieces else 0
+    return f"{len(pieces)} pieces, {unused} too short to filter"
+
+
+def _fit_caption(config) -> str:
+    caption = "Fit on training rows, error on held-out rows"
+    return caption + (" (Table 4.1 for this run)" if on_thesis_rig(config) else "")
+
+
+def on_thesis_rig(config) -> bool:
+    """Whether the rig is the thesis's own (the Hydro Muscle's Ch. 4 rig), where the report may
+    point to the thesis's tables."""
+    return "thesis" in config.rig.name.lower()
+
+
+def _fit_keys(frame: pd.DataFrame) -> tuple[str, ...]:
+    wanted = ("model", "terms", "R² (train)", "RMSE train", "RMSE held-out", "R² held-out", "BIC")
+    return tuple(c for c in frame.columns if c.startswith(wanted))
 
 
 def _data_section(artifacts, tables: _Tables) -> Section:
@@ -424,8 +529,19 @@ def _data_section(artifacts, tables: _Tables) -> Section:
         text="Findings from validation:\n\n"
         + ("\n".join(f"- {f}" for f in flags) if flags else "- none"),
         tables=(
-            Table(tables.data, "Logs as loaded (SI, rig's sign convention) and denoised"),
-            Table(tables.pieces, "Pieces between logger pauses (unused: too short to filter)"),
+            Table(
+                tables.data,
+                "Logs as loaded (SI, rig's sign convention) and denoised",
+                key_columns=_data_keys(tables.data),
+                summary=_logs_summary(tables.data),
+                collapsed=True,
+            ),
+            Table(
+                tables.pieces,
+                "Pieces between logger pauses (used: False where a piece is too short to filter)",
+                summary=_pieces_summary(tables.pieces),
+                collapsed=True,
+            ),
         ),
     )
 
@@ -442,11 +558,17 @@ def _portable(config, artifacts, units, run_dir: Path, out: _Folders, drawing) -
 
 
 def write_outputs(
-    config, artifacts: dict[str, Any], run_dir: Path, provenance: dict, drawing=None
+    config,
+    artifacts: dict[str, Any],
+    run_dir: Path,
+    provenance: dict,
+    drawing=None,
+    progress=None,
 ) -> dict:
     """Write every table, figure, metrics.json and the report; returns the metrics. The
     figures the models ask for are drawn by ``drawing`` (:class:`~hmid.workers.Tasks`;
-    default: its own, started here) while this process writes the rest."""
+    default: its own, started here) while this process writes the rest; ``progress`` (a
+    :class:`hmid.progress.Progress`) counts them."""
     from hmid.workers import Tasks
 
     drawing = Tasks().start(FIGURE_MODULES) if drawing is None else drawing
@@ -454,15 +576,19 @@ def write_outputs(
     out = _Folders.make(run_dir)
     units = log_units(config)
     tables = _tables(artifacts, units, out)
-    coefficient_sections, wanted = _model_sections(artifacts["fit"], out)
+    coefficient_sections, wanted = _model_sections(
+        artifacts["fit"], out, artifacts["compare"].scores
+    )
     model_figures = _draw(drawing, wanted, config, artifacts, units, out)
     loop_sections, metrics_loop = _loop(config, artifacts, out, drawing)
     friction_sections, friction_summary = _friction(config, artifacts, out)
     free_sections, portable = _portable(config, artifacts, units, run_dir, out, drawing)
-    metrics = _metrics(config, artifacts, units, metrics_loop) | portable
+    found = answer(config, artifacts, pd.DataFrame(portable["free_run"]))
+    metrics = _metrics(config, artifacts, units, metrics_loop) | portable | {"answer": found}
     write_json(run_dir / "metrics.json", metrics)
     report = Report(
         title=f"hmid identification report: {config.name}",
+        lead=_lead(config, found, units["target"]),
         summary=_summary(config, artifacts, units["target"], friction_summary),
         sections=(
             _rig_section(config, units),
@@ -470,13 +596,18 @@ def write_outputs(
             *free_sections,
             *loop_sections,
             Section(
-                "Model parameters (cf. thesis Table 4.2)", subsections=tuple(coefficient_sections)
+                "Model parameters" + (" (cf. thesis Table 4.2)" if on_thesis_rig(config) else ""),
+                subsections=tuple(coefficient_sections),
             ),
             *friction_sections,
             _data_section(artifacts, tables),
         ),
         provenance=provenance,
     )
-    drawing.results()  # the report embeds the figures
+    if progress is None:
+        drawing.results()  # the report embeds the figures
+    else:
+        with progress.count("figures", drawing.queued) as step:
+            drawing.results(step)
     write_report(report, run_dir)
     return metrics

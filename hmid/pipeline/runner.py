@@ -108,11 +108,13 @@ class Runner:
         *,
         keep: Collection[str] | None = None,
         before: Mapping[str, Callable[[], object]] | None = None,
+        progress: Any = None,
     ) -> dict[str, Any]:
         """Run ``stages`` (each after its inputs); returns every artifact by stage name, or only
         those named in ``keep``: the others are let go after their last reader, so that a long
         log is not held as loaded, as smoothed and as signals at once. ``before[name]()`` is
-        called before stage ``name`` (to have a worker import what a later stage needs)."""
+        called before stage ``name`` (to have a worker import what a later stage needs);
+        ``progress`` (a :class:`hmid.progress.Progress`) hears of each stage's start and end."""
         before = before or {}
         artifacts: dict[str, Any] = {}
         last_read = {s.name: i for i, s in enumerate(stages)}
@@ -125,6 +127,8 @@ class Runner:
                 raise ValueError(f"stage {stage.name!r} needs {missing}, not produced before it")
             if stage.name in before:
                 before[stage.name]()
+            if progress is not None:
+                progress.started(stage.name)
             key = self._key(stage, config, [self.records[n].key for n in stage.inputs])
             path = self.cache_dir / f"{stage.name}-{key[:20]}.pkl"
             start = time.perf_counter()
@@ -144,6 +148,8 @@ class Runner:
             cached = (found is not None) if stage.store else None
             record = StageRecord(key, cached, time.perf_counter() - start)
             self.records[stage.name] = record
+            if progress is not None:
+                progress.done(stage.name, record.wall_s, cached)
             if keep is not None:
                 for name in [n for n in artifacts if n not in keep and last_read[n] <= i]:
                     del artifacts[name]

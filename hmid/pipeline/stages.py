@@ -218,7 +218,7 @@ def signals(config: ExperimentConfig, denoise: dict[str, Denoised], friction) ->
             differentiator=differentiator,
             free_fall_law=None if friction is None else friction.friction,
             v_deadband=config.fit.v_deadband,
-            exclude_stuck=config.fit.exclude_stuck,
+            exclude_stuck=bool(config.fit.exclude_stuck),  # resolved at load
         )
     except KeyError as err:
         raise LogError(f"signals: a dynamic log lacks channel {err}") from None
@@ -298,6 +298,7 @@ class Rows:
     validation: int
     excluded: int
     findings: tuple = ()  # hmid.io.plausibility.DataFinding: dynamic logs that give no rows
+    edges: int = 0  # of the excluded: within a filter's reach of a piece's ends
 
 
 def rows(config: ExperimentConfig, split: Split) -> Rows:
@@ -321,9 +322,25 @@ def rows(config: ExperimentConfig, split: Split) -> Rows:
             no_rows(name, n, usable, peak if v is not None else None, config.fit.v_deadband,
                     config.rig.position)
         )  # fmt: skip
-    return Rows(
-        split.n_train, split.n_validation, split.excluded, tuple(f for f in found if f is not None)
-    )
+    return Rows(split.n_train, split.n_validation, split.excluded,
+                tuple(f for f in found if f is not None), _edges(config, split))  # fmt: skip
+
+
+def _edges(config: ExperimentConfig, split: Split) -> int:
+    """How many rows the filters' edges take (the rest of the excluded rows are stopped or slow
+    motion): both ends of every piece, as :func:`signals` cuts them."""
+    from hmid.signal.reach import impulse_reach
+
+    smoother, differentiator = config.denoise.build()
+    t, edges = split.signals.frame["t"].to_numpy(), 0
+    for start, stop in split.signals.bounds():
+        piece = t[start:stop]
+        reach = impulse_reach(piece, smoother)
+        if config.rig.position is not None:
+            derivative = impulse_reach(piece, lambda t, y: differentiator.derivative(t, y, 1))
+            reach = max(reach, derivative)
+        edges += min(2 * reach, stop - start)
+    return edges
 
 
 def fit(

@@ -54,10 +54,12 @@ class Figure:
 
     ``path`` may be absolute or relative to the run folder; renderers check that the file exists,
     is a PNG and lies inside the run folder, so the report stays valid when the folder is moved.
+    ``collapsed``: the HTML page shows the caption and the figure on request.
     """
 
     path: Path
     caption: str
+    collapsed: bool = False
 
     def __post_init__(self) -> None:
         if not isinstance(self.path, str | Path):
@@ -74,11 +76,19 @@ class Table:
     as ``".3f"`` or ``".2e"`` (the part after the colon in ``f"{x:.3f}"``). Integers are shown
     exactly; missing values (None, NA, NaT) as "—" and float NaN as "NaN". A non-default index is
     shown as the first column(s). Tables compare by identity (data frames have no plain ``==``).
+
+    ``key_columns`` names the few columns a reader needs first: the HTML page shows those and
+    keeps the whole table behind a toggle (the Markdown and the CSV have every column).
+    ``summary`` is the one line shown in place of a long table, which the HTML page collapses
+    (more than :data:`LONG_TABLE` rows, or ``collapsed=True``).
     """
 
     frame: pd.DataFrame
     caption: str
     float_format: str | None = None
+    key_columns: tuple[str, ...] = ()
+    summary: str = ""
+    collapsed: bool | None = None  # None: collapsed when longer than LONG_TABLE rows
 
     def __post_init__(self) -> None:
         if not isinstance(self.frame, pd.DataFrame):
@@ -94,6 +104,28 @@ class Table:
                     f"Table.float_format {self.float_format!r} is not a float format spec "
                     f"(use e.g. '.3f' or '.2e'): {exc}"
                 ) from None
+        _set(self, "key_columns", _as_tuple("Table", "key_columns", self.key_columns, str))
+        missing = [c for c in self.key_columns if c not in self.frame.columns]
+        if missing:
+            raise ValueError(
+                f"Table.key_columns {missing} are not columns of the table "
+                f"{list(map(str, self.frame.columns))}"
+            )
+        _check_str("Table", "summary", self.summary)
+
+    @property
+    def is_collapsed(self) -> bool:
+        return len(self.frame) > LONG_TABLE if self.collapsed is None else self.collapsed
+
+    def key_table(self) -> Table | None:
+        """The table with its key columns alone (None when it has none, or only those)."""
+        if not self.key_columns or len(self.key_columns) == self.frame.shape[1]:
+            return None
+        return Table(self.frame[list(self.key_columns)], self.caption, self.float_format)
+
+
+#: A table with more rows than this is collapsed to its caption and summary on the HTML page.
+LONG_TABLE = 12
 
 
 @dataclass(frozen=True)
@@ -110,10 +142,13 @@ class Section:
     tables: tuple[Table, ...] = ()
     figures: tuple[Figure, ...] = ()
     subsections: tuple[Section, ...] = ()
+    collapsed: bool = False  # the HTML page shows the heading (and summary), the rest on request
+    summary: str = ""
 
     def __post_init__(self) -> None:
         _check_str("Section", "title", self.title, nonempty=True)
         _check_str("Section", "text", self.text)
+        _check_str("Section", "summary", self.summary)
         _set(self, "tables", _as_tuple("Section", "tables", self.tables, Table))
         _set(self, "figures", _as_tuple("Section", "figures", self.figures, Figure))
         _set(self, "subsections", _as_tuple("Section", "subsections", self.subsections, Section))
@@ -126,15 +161,18 @@ class Report:
     ``summary`` is an ordered tuple of ``(label, value)`` strings, e.g.
     ``(("best model", "cubic_xvP"), ("held-out RMSE (one-step)", "0.026 N"))``.
     ``provenance`` maps names to strings (git commit, config hash, package versions, ...).
+    ``lead`` is the answer in a few lines, shown first in the summary (section text's Markdown).
     """
 
     title: str
     summary: tuple[tuple[str, str], ...] = ()
     sections: tuple[Section, ...] = ()
     provenance: Mapping[str, str] = field(default_factory=dict)
+    lead: str = ""
 
     def __post_init__(self) -> None:
         _check_str("Report", "title", self.title, nonempty=True)
+        _check_str("Report", "lead", self.lead)
         pairs = _as_tuple("Report", "summary", self.summary, tuple)
         for i, pair in enumerate(pairs):
             if len(pair) != 2 or not all(isinstance(s, str) for s in pair):

@@ -17,6 +17,7 @@ import hashlib
 import html
 import re
 import struct
+from dataclasses import replace
 from pathlib import Path
 
 from hmid.report._common import Cells, Entry, figure_file, section_text, table_cells, walk
@@ -30,7 +31,7 @@ html { background: #eef1f4; }
 body { margin: 0; padding: 2rem 1rem; color: var(--ink); line-height: 1.55;
   font: 16px/1.55 system-ui, -apple-system, "Segoe UI", Roboto, "Helvetica Neue", Arial,
   sans-serif; }
-main { max-width: 62rem; margin: 0 auto; background: #fff; padding: 2.5rem 3rem 2rem;
+main { max-width: 80rem; margin: 0 auto; background: #fff; padding: 2.5rem 3rem 2rem;
   border: 1px solid var(--rule); border-radius: 8px; box-shadow: 0 1px 3px rgb(0 0 0 / 6%); }
 h1 { font-size: 1.9rem; line-height: 1.25; margin: 0 0 1.5rem; letter-spacing: -0.01em; }
 h2 { font-size: 1.4rem; margin: 2.6rem 0 0.9rem; padding-bottom: 0.3rem;
@@ -39,7 +40,7 @@ h3 { font-size: 1.15rem; margin: 2rem 0 0.7rem; }
 h4, h5, h6 { font-size: 1rem; margin: 1.6rem 0 0.6rem; }
 .num { color: var(--muted); font-weight: 500; margin-right: 0.45em;
   font-variant-numeric: tabular-nums; }
-p, ul { margin: 0 0 0.9rem; }
+p, ul { margin: 0 0 0.9rem; max-width: 60rem; }
 ul { padding-left: 1.4rem; }
 li { margin: 0.15rem 0; }
 code { font: 0.88em/1.4 ui-monospace, "SF Mono", Menlo, Consolas, "DejaVu Sans Mono", monospace;
@@ -52,29 +53,47 @@ code { font: 0.88em/1.4 ui-monospace, "SF Mono", Menlo, Consolas, "DejaVu Sans M
   gap: 0.9rem 1.6rem; margin: 0; }
 .summary dt { font-size: 0.8rem; color: var(--muted); text-transform: uppercase;
   letter-spacing: 0.04em; }
-.summary dd { margin: 0.1rem 0 0; font-size: 1.2rem; font-weight: 600;
+.summary dd { margin: 0.1rem 0 0; font-size: 1.05rem; font-weight: 600;
   font-variant-numeric: tabular-nums; overflow-wrap: anywhere; }
+.summary .lead { margin: 0 0 1rem; }
+.summary dl > div.long { grid-column: 1 / -1; }
+.summary div.long dd { font-size: 0.95rem; font-weight: 500; }
+.summary .lead p, .summary .lead ul { max-width: none; }
+.summary .lead ul { columns: 2 24rem; column-gap: 2rem; }
 nav.toc { margin: 1.6rem 0 0; font-size: 0.92rem; }
 nav.toc h2 { font-size: 0.8rem; text-transform: uppercase; letter-spacing: 0.08em;
   color: var(--muted); border: 0; margin: 0 0 0.3rem; padding: 0; }
 nav.toc ol { list-style: none; margin: 0; padding: 0; }
+nav.toc > ol { columns: 2 22rem; column-gap: 2rem; }
+nav.toc > ol > li { break-inside: avoid; }
 nav.toc ol ol { padding-left: 1.4rem; }
 nav.toc li { margin: 0.1rem 0; }
 nav.toc a { color: var(--accent); text-decoration: none; }
 nav.toc a:hover { text-decoration: underline; }
-.table-wrap { overflow-x: auto; margin: 1.2rem 0 1.6rem; }
+.table-wrap { overflow-x: auto; margin: 1.2rem 0 1.6rem; max-width: 100%; }
+details { margin: 1rem 0 1.4rem; }
+details > summary { cursor: pointer; font-size: 0.9rem; color: var(--muted); }
+details > summary .more, details.all-columns > summary { color: var(--accent); }
+details.all-columns { margin-top: -1rem; }
+details.section > summary { list-style: none; }
+details.section > summary > h3, details.section > summary > h4 { display: inline-block;
+  margin: 0.8rem 0 0.4rem; }
+details.section > summary::before { content: "▸ "; color: var(--accent); }
+details.section[open] > summary::before { content: "▾ "; }
+details > .table-wrap { margin-top: 0.6rem; }
 table { border-collapse: collapse; font-size: 0.9rem; font-variant-numeric: tabular-nums; }
 caption { caption-side: top; text-align: left; font-size: 0.9rem; color: var(--muted);
   padding-bottom: 0.45rem; }
 th, td { padding: 0.38rem 0.8rem; text-align: left; vertical-align: top;
   border-bottom: 1px solid var(--rule); }
-thead th { background: var(--stripe); border-bottom: 2px solid #afb8c1; font-weight: 600;
-  white-space: nowrap; }
+thead th { background: var(--stripe); border-bottom: 2px solid #afb8c1; font-weight: 600; }
 tbody tr:nth-child(even) { background: #fbfcfd; }
-th.r, td.r { text-align: right; white-space: nowrap; }
+th.r, td.r { text-align: right; }
+td.r { white-space: nowrap; }
+td { overflow-wrap: anywhere; }
 .label { font-weight: 600; color: var(--ink); margin-right: 0.3em; }
 figure { margin: 1.6rem 0 2rem; text-align: center; }
-figure img { display: block; max-width: 100%; height: auto; margin: 0 auto; }
+figure img { display: block; max-width: min(100%, 50rem); height: auto; margin: 0 auto; }
 figcaption { font-size: 0.9rem; color: var(--muted); margin-top: 0.55rem; max-width: 46rem;
   margin-left: auto; margin-right: auto; }
 footer.provenance { margin-top: 3rem; font-size: 0.85rem; color: var(--muted); }
@@ -117,6 +136,11 @@ window.addEventListener("load", function () {
   }
 });
 """
+
+
+#: A summary fact longer than this spans the box's width, in a lighter weight.
+LONG_FACT = 48
+_LONG = ' class="long"'
 
 
 def _csp_hash(source: str) -> str:
@@ -175,7 +199,7 @@ def text_to_html(text: str) -> str:
     return "\n".join(html_blocks)
 
 
-def _table(table: Table, number: int) -> str:
+def _grid(table: Table, caption: str) -> str:
     cells: Cells = table_cells(table)
 
     def cls(j: int) -> str:
@@ -186,10 +210,36 @@ def _table(table: Table, number: int) -> str:
         "<tr>" + "".join(f"<td{cls(j)}>{_e(c)}</td>" for j, c in enumerate(row)) + "</tr>"
         for row in cells.rows
     )
-    caption = f'<span class="label">Table {number}.</span> {_e(table.caption)}'
+    caption = f"<caption>{caption}</caption>\n" if caption else ""
     return (
-        f'<div class="table-wrap"><table>\n<caption>{caption}</caption>\n'
+        f'<div class="table-wrap"><table>\n{caption}'
         f"<thead><tr>{head}</tr></thead>\n<tbody>\n{body}\n</tbody>\n</table></div>"
+    )
+
+
+def _table(table: Table, number: int) -> str:
+    """A table: its key columns with the whole table behind a toggle, or all of it; a long one
+    collapsed to its caption and one-line summary."""
+    label = f'<span class="label">Table {number}.</span> {_e(table.caption)}'
+    key = table.key_table()
+    n_rows, n_columns = table.frame.shape
+    if table.is_collapsed:
+        summary = _e(table.summary) if table.summary else f"{n_rows} rows"
+        inner = _grid(table, "") if key is None else (
+            _grid(key, "") + _whole(table, n_columns))  # fmt: skip
+        return (
+            f'<details class="long"><summary>{label} <span class="more">{summary} '
+            f"(show)</span></summary>\n{inner}\n</details>"
+        )
+    if key is None:
+        return _grid(table, label)
+    return _grid(key, label) + "\n" + _whole(table, n_columns)
+
+
+def _whole(table: Table, n_columns: int) -> str:
+    return (
+        f'<details class="all-columns"><summary>all {n_columns} columns</summary>\n'
+        f"{_grid(table, '')}\n</details>"
     )
 
 
@@ -199,9 +249,15 @@ def _figure(figure: Figure, number: int, run_dir: Path) -> str:
     uri = "data:image/png;base64," + base64.b64encode(data).decode("ascii")
     alt = _e(figure.caption or f"Figure {number}")
     caption = f'<span class="label">Figure {number}.</span> {_e(figure.caption)}'
-    return (
+    shown = (
         f'<figure>\n<img src="{uri}" alt="{alt}" width="{width}" height="{height}">\n'
         f"<figcaption>{caption}</figcaption>\n</figure>"
+    )
+    if not figure.collapsed:
+        return shown
+    return (
+        f'<details class="figure"><summary>{caption} <span class="more">(show)</span>'
+        f"</summary>\n{shown}\n</details>"
     )
 
 
@@ -225,35 +281,59 @@ def render_html(report: Report, run_dir: str | Path) -> str:
     ]
     if report.summary:
         items = "\n".join(
-            f"<div><dt>{_e(label)}</dt><dd>{_e(value)}</dd></div>"
+            f"<div{_LONG if len(value) > LONG_FACT else ''}><dt>{_e(label)}</dt>"
+            f"<dd>{_e(value)}</dd></div>"
             for label, value in report.summary
         )
-        out += ['<section class="summary">', "<h2>Summary</h2>", f"<dl>\n{items}\n</dl>"]
+        out += ['<section class="summary">', "<h2>Summary</h2>"]
+        if report.lead.strip():
+            out.append(f'<div class="lead">{text_to_html(report.lead)}</div>')
+        out.append(f"<dl>\n{items}\n</dl>")
         out.append("</section>")
     if len(entries) > 1:
         out.append(_toc(entries))
     n_tables = n_figures = 0
-    depth = 0
+    closers: list[str] = []  # what closes each open section, deepest last
     for entry in entries:
-        while depth >= entry.depth:  # close finished sections, deepest first
-            out.append("</section>")
-            depth -= 1
-        depth = entry.depth
+        while len(closers) >= entry.depth:  # close finished sections, deepest first
+            out.append(closers.pop())
         section = entry.section
         level = min(entry.depth + 1, 6)
         out.append(f'<section id="{_anchor(entry.number)}">')
-        out.append(
-            f'<h{level}><span class="num">{entry.number}</span>{_e(section.title)}</h{level}>'
-        )
+        heading = f'<h{level}><span class="num">{entry.number}</span>{_e(section.title)}</h{level}>'
+        if section.collapsed:  # the heading opens it
+            more = f" {_e(section.summary)}" if section.summary else ""
+            out.append(f'<details class="section"><summary>{heading}<span class="more">'
+                       f"{more} (show)</span></summary>")  # fmt: skip
+            closers.append("</details></section>")
+        else:
+            out.append(heading)
+            closers.append("</section>")
         if section.text.strip():
             out.append(text_to_html(section.text))
         for table in section.tables:
             n_tables += 1
             out.append(_table(table, n_tables))
-        for figure in section.figures:
+        shown = [f for f in section.figures if not f.collapsed]
+        for figure in shown:
             n_figures += 1
             out.append(_figure(figure, n_figures, run_dir))
-    out += ["</section>"] * depth
+        hidden = [f for f in section.figures if f.collapsed]
+        if len(hidden) == 1:
+            n_figures += 1
+            out.append(_figure(hidden[0], n_figures, run_dir))
+        elif hidden:  # several on request: one line opens them all
+            first, n_figures = n_figures + 1, n_figures + len(hidden)
+            inner = "\n".join(
+                _figure(replace(f, collapsed=False), first + i, run_dir)
+                for i, f in enumerate(hidden)
+            )
+            out.append(
+                f'<details class="figure"><summary><span class="label">Figures {first}–'
+                f"{n_figures}.</span> {_e('; '.join(f.caption for f in hidden))} "
+                f'<span class="more">(show)</span></summary>\n{inner}\n</details>'
+            )
+    out += reversed(closers)
     if report.provenance:
         rows = "\n".join(
             f'<tr><th scope="row">{_e(k)}</th><td><code>{_e(v)}</code></td></tr>'
@@ -262,11 +342,21 @@ def render_html(report: Report, run_dir: str | Path) -> str:
         out += [
             '<footer class="provenance">',
             "<h2>Provenance</h2>",
+            f"<details><summary>{_provenance_line(report.provenance)} (show all "
+            f"{len(report.provenance)})</summary>",
             f"<table>\n<tbody>\n{rows}\n</tbody>\n</table>",
+            "</details>",
             "</footer>",
         ]
     out += ["</main>", f"<script>{_SCRIPT}</script>", "</body>", "</html>"]
     return "\n".join(out) + "\n"
+
+
+def _provenance_line(provenance) -> str:
+    """The provenance's first entries in one line (config, commit, seed), for its toggle."""
+    wanted = [k for k in ("config", "git commit", "seed") if k in provenance]
+    shown = wanted or list(provenance)[:2]
+    return _e("; ".join(f"{k}: {provenance[k]}" for k in shown))
 
 
 def _anchor(number: str) -> str:
@@ -274,6 +364,9 @@ def _anchor(number: str) -> str:
 
 
 def _toc(entries: list[Entry]) -> str:
+    """The contents: every section but those collapsed (they open where they stand)."""
+    hidden = [e.number for e in entries if e.section.collapsed]
+    entries = [e for e in entries if not any(f"{e.number}.".startswith(f"{n}.") for n in hidden)]
     out = ['<nav class="toc" aria-label="Contents">', "<h2>Contents</h2>"]
     depth = 0
     for entry in entries:

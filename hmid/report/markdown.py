@@ -49,6 +49,8 @@ def render_markdown(report: Report, run_dir: str | Path) -> str:
     """The report as Markdown for a file written directly inside ``run_dir``."""
     run_dir = Path(run_dir)
     out = [f"# {_inline(report.title)}", ""]
+    if report.lead.strip():
+        out += [_text(report.lead), ""]
     if report.summary:
         out += [f"- **{_inline(label)}:** {_inline(value)}" for label, value in report.summary]
         out.append("")

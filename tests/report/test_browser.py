@@ -202,3 +202,63 @@ def test_csp_blocks_injected_content_and_the_image_check_notices(
     assert images_ok(dom) == "2/3"
     assert "1 of 3 figures could not be displayed." in dom
     assert requests == []
+
+
+#: Measures the page as shown (long tables collapsed): every visible table's wrapper against
+#: its width, and the page's height; written into the DOM for --dump-dom to return.
+_MEASURE = """<script>
+window.addEventListener("load", function () {
+  var wide = [];
+  document.querySelectorAll(".table-wrap").forEach(function (wrap) {
+    if (wrap.closest("details:not([open])")) return;  // shown on request only
+    if (wrap.scrollWidth > wrap.clientWidth) {
+      var caption = wrap.querySelector("caption");
+      wide.push((caption ? caption.textContent : "?") + " " + wrap.scrollWidth + " > " +
+                wrap.clientWidth);
+    }
+  });
+  var out = document.createElement("pre");
+  out.id = "measure";
+  out.textContent = JSON.stringify({wide: wide,
+    height: document.documentElement.scrollHeight, width: window.innerWidth});
+  document.body.appendChild(out);
+});
+</script>"""
+
+ROOT = Path(__file__).resolve().parents[2]
+SCREEN = (1400, 900)
+
+
+def measure(page: Path, workdir: Path) -> dict:
+    """The page at 1400 x 900 as the reader first sees it: tables wider than their container
+    and the height in pixels."""
+    text = page.read_text(encoding="utf-8")
+    text = re.sub(r'<meta http-equiv="Content-Security-Policy"[^>]*>', "", text)
+    copy = workdir / f"measured-{page.parent.name}.html"
+    copy.write_text(text.replace("</body>", _MEASURE + "</body>"), encoding="utf-8")
+    dom = chromium(copy, workdir, "--virtual-time-budget=5000",
+                   f"--window-size={SCREEN[0]},{SCREEN[1]}", "--dump-dom")  # fmt: skip
+    found = re.search(r'<pre id="measure">(.*?)</pre>', dom, flags=re.S)
+    assert found, "the measuring script did not run"
+    return json.loads(found.group(1).replace("&gt;", ">").replace("&amp;", "&"))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "config",
+    ["demo", "linear-motor",
+     pytest.param("pneumatic/o-ring", marks=pytest.mark.shared_data)],
+)  # fmt: skip
+def test_shipped_reports_fit_the_page(config: str, tmp_path_factory) -> None:
+    """Issue 32: on the shipped rigs' reports no table is wider than its container and, with
+    long tables collapsed, the page is at most about 8 screens of 1400 x 900."""
+    from pipelines.identify import run
+
+    path = ROOT / "configs" / f"{config}.yaml"
+    if config.startswith("pneumatic") and not (ROOT.parent / "shared" / "data").is_dir():
+        pytest.skip("../shared/data is absent")
+    workdir = tmp_path_factory.mktemp("fit")
+    run_dir, _ = run(path, results=workdir / "results")
+    found = measure(run_dir / "report.html", workdir)
+    assert found["wide"] == [], f"tables wider than the page: {found['wide']}"
+    assert found["height"] <= 8.5 * SCREEN[1], f"{found['height'] / SCREEN[1]:.1f} screens"

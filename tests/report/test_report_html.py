@@ -39,8 +39,9 @@ def test_all_text_is_escaped(tmp_path: Path, make_png) -> None:
     assert "<script>alert" not in page
     assert page.count("<script>") == 1  # only the image check
     # title x2 (<title>, <h1>), summary x2, section x2 (heading, contents), text, table header,
-    # cell, caption, figure alt and caption, provenance key and value
-    assert page.count("&lt;script&gt;alert(&#x27;x&#x27;)&lt;/script&gt;") == 14
+    # cell, caption, figure alt and caption, provenance key and value (twice: in its table and
+    # in the one line that opens it)
+    assert page.count("&lt;script&gt;alert(&#x27;x&#x27;)&lt;/script&gt;") == 16
 
 
 def test_page_is_self_contained(tmp_path: Path, make_png, find_external) -> None:
@@ -105,3 +106,42 @@ def test_text_markup() -> None:
     )
     assert text_to_html("") == ""
     assert text_to_html("**<i>x</i>**") == "<p><strong>&lt;i&gt;x&lt;/i&gt;</strong></p>"
+
+
+def _wide(rows: int = 3) -> pd.DataFrame:
+    return pd.DataFrame({f"column {i}": [0.5 * i] * rows for i in range(12)})
+
+
+def test_key_columns_first_the_whole_table_behind_a_toggle(tmp_path: Path) -> None:
+    table = Table(_wide(), "Wide", key_columns=("column 0", "column 3"))
+    page = render_html(Report("r", sections=(Section("s", tables=(table,)),)), tmp_path)
+    shown, hidden = page.split('<details class="all-columns">')
+    assert "column 3" in shown and "column 4" not in shown
+    assert "all 12 columns" in hidden and "column 11" in hidden
+    assert page.count("Table 1.") == 1
+
+
+def test_a_long_table_is_collapsed_to_its_summary(tmp_path: Path) -> None:
+    long = Table(_wide(40), "Long", summary="40 rows of twelve")
+    short = Table(_wide(3), "Short")
+    page = render_html(Report("r", sections=(Section("s", tables=(long, short)),)), tmp_path)
+    assert '<details class="long"><summary><span class="label">Table 1.</span> Long' in page
+    assert "40 rows of twelve (show)" in page
+    assert page.count("<details") == 1  # the short table is shown as it is
+
+
+def test_key_columns_must_be_columns() -> None:
+    import pytest
+
+    with pytest.raises(ValueError, match=r"\['nope'\] are not columns"):
+        Table(_wide(), "Wide", key_columns=("nope",))
+
+
+def test_the_lead_opens_the_summary(tmp_path: Path) -> None:
+    report = Report("r", lead="**sls** wins\n\n- k = 1 N/m", summary=(("rig", "demo"),))
+    page = render_html(report, tmp_path)
+    summary = page[page.index('<section class="summary">') :]
+    assert summary.index('<div class="lead"><p><strong>sls</strong> wins</p>') < summary.index(
+        "<dl>"
+    )
+    assert "<li>k = 1 N/m</li>" in summary

@@ -127,3 +127,16 @@ def test_figure_problems_are_loud(tmp_path: Path, make_png) -> None:
     (tmp_path / "run" / "fig.svg").write_text("<svg/>")
     with pytest.raises(ReportError, match="not a PNG"):
         render(Path("fig.svg"))
+
+
+def test_the_lead_comes_before_the_summary_and_tables_keep_every_column(tmp_path) -> None:
+    frame = pd.DataFrame({f"c{i}": [i] for i in range(9)})
+    report = Report(
+        "r",
+        lead="**sls** wins",
+        summary=(("rig", "demo"),),
+        sections=(Section("s", tables=(Table(frame, "t", key_columns=("c0",)),)),),
+    )
+    text = render_markdown(report, tmp_path)
+    assert text.index("**sls** wins") < text.index("- **rig:** demo")
+    assert "| c0 | c1 | c2 | c3 | c4 | c5 | c6 | c7 | c8 |" in text

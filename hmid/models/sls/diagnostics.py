@@ -29,6 +29,7 @@ __all__ = [
     "corner_plot",
     "grid_plot",
     "lag1_autocorrelation",
+    "physical_corner_plot",
     "residuals_correlated",
     "trace_plot",
 ]
@@ -107,6 +108,85 @@ def corner_plot(
     finally:
         root.removeFilter(quiet)
     return _save(fig, path, dpi=100)  # 15 inches square: 1,500 pixels are ample
+
+
+#: Draws shown in a physical corner plot (a thinned subset: the shape is the same, the cost not).
+CORNER_DRAWS = 4000
+
+
+def physical_corner_plot(
+    draws: dict[str, np.ndarray],
+    units: dict[str, str],
+    path: str | Path,
+    truths: dict | None = None,
+) -> Path:
+    """The posterior's pairwise and marginal histograms in physical units (``draws``: name ->
+    values), each axis labelled with its unit, the 5/50/95 % quantiles marked and a known truth
+    drawn where there is one: ``truths`` is a simulator's rig (nested sections of numbers), read
+    from the section that names most of the parameters. Titles are kept short and the
+    ticks few, so that panels do not run into each other."""
+    import corner  # imports pyplot; kept out of hmid's import time
+
+    names = list(draws)
+    chain = np.column_stack([np.asarray(draws[n], float).ravel() for n in names])
+    if len(chain) > CORNER_DRAWS:
+        chain = chain[np.linspace(0, len(chain) - 1, CORNER_DRAWS).astype(int)]
+    if len(chain) <= len(names):
+        raise ConfigError(
+            f"corner_plot: {len(chain)} posterior draws are too few for {len(names)} parameters"
+        )
+    known = _truth_section(truths or {}, names)
+    marks = [known.get(n) for n in names]
+    labels = [f"{n} [{units[n]}]" if units.get(n) else n for n in names]
+    dim = len(names)
+    fig = Figure(figsize=(1.9 * dim + 1.2, 1.9 * dim + 1.2))
+    root = logging.getLogger()
+    quiet = _Without("Too few points to create valid contours")
+    root.addFilter(quiet)
+    try:
+        corner.corner(
+            chain,
+            labels=labels,
+            truths=marks if any(m is not None for m in marks) else None,
+            truth_color="C3",
+            quantiles=[0.05, 0.5, 0.95],
+            show_titles=True,
+            title_fmt=".4g",
+            title_kwargs={"fontsize": 8},
+            label_kwargs={"fontsize": 9},
+            max_n_ticks=3,
+            labelpad=0.12,
+            fig=fig,
+        )
+    finally:
+        root.removeFilter(quiet)
+    for ax in fig.axes:
+        ax.tick_params(labelsize=7)
+        for axis in (ax.xaxis, ax.yaxis):
+            formatter = axis.get_major_formatter()
+            if hasattr(formatter, "set_powerlimits"):
+                formatter.set_powerlimits((-3, 4))
+            axis.get_offset_text().set_fontsize(7)
+    if any(m is not None for m in marks):
+        fig.text(0.98, 0.98, "red: the simulator's truth", ha="right", va="top", fontsize=10,
+                 color="C3")  # fmt: skip
+    fig.subplots_adjust(left=0.1, bottom=0.1, right=0.98, top=0.96, wspace=0.12, hspace=0.12)
+    return _save(fig, path, dpi=90)
+
+
+def _truth_section(tree: dict, names: list[str]) -> dict[str, float]:
+    """The numbers of the section of ``tree`` (itself or a nested one) that names most of
+    ``names`` (at least two), by name; empty if none does."""
+    best: dict[str, float] = {}
+    todo = [tree]
+    while todo:
+        section = todo.pop(0)
+        numbers = {k: float(v) for k, v in section.items()
+                   if isinstance(v, int | float) and not isinstance(v, bool)}  # fmt: skip
+        if sum(n in numbers for n in names) > max(1, sum(n in best for n in names)):
+            best = numbers
+        todo += [v for v in section.values() if isinstance(v, dict)]
+    return best
 
 
 class _Without(logging.Filter):

@@ -56,6 +56,7 @@ from hmid.models.sls._errors import SamplerError, SamplingInterrupted
 from hmid.models.sls._logprob import LogProb
 from hmid.models.sls._moves import SnookerMove
 from hmid.models.sls._sampler_result import SamplerResult
+from hmid.progress import bars_wanted
 
 __all__ = [
     "STOP_REASONS",
@@ -219,8 +220,8 @@ def _sample(target, theta0, radius, names, cfg, store, fresh) -> SamplerResult:
     bar = tqdm(
         total=cfg.max_steps,
         initial=min(walk.it, cfg.max_steps),
-        disable=not cfg.progress,
-        desc="MCMC",
+        disable=not (cfg.progress or bars_wanted()),
+        desc="SLS posterior (MCMC)",
         unit="step",
     )
     with bar:
