@@ -427,8 +427,9 @@ def freerun(config: ExperimentConfig, split: Split, fit: list[Fitted], export: d
 
     spans = blocks(split.signals)
     out: dict = {}
-    # models are independent: shared with a worker, as the fit stage shares the families
-    tasks = Tasks(ahead=1) if len(export) > 1 else Tasks(workers=0)
+    # in this process: models of one shape share one compiled program, and compiling it (seconds)
+    # costs more than running every model (tens of milliseconds each)
+    tasks = Tasks(workers=0)
     for name, document in export.items():
         if isinstance(document, str):
             out[name] = FreeRun(name, (), document)

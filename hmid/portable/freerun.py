@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from functools import lru_cache, partial
 from typing import Any
 
@@ -156,64 +156,88 @@ def equation(model, v0: float | None = None) -> Equation:
     return Equation(tuple(rhs), tuple(lhs), tuple(inputs), len(memory), tuple(lags), v0)
 
 
-def _value(kind, data, t, x, v, q, lag, u):
-    """A term's regressor on the state (``u(name, t)`` reads an input)."""
-    import jax.numpy as jnp
-
-    if kind == "const":
-        return 1.0
-    if kind == "mono":
-        out = 1.0
-        for name, power in data:
-            out = out * ({"x": x, "v": v}.get(name) if name in ("x", "v") else u(name, t)) ** power
-        return out
-    if kind == "tanh":
-        return jnp.tanh(v / data)
-    if kind == "memory":
-        return q[data[0]]
-    if kind == "lag":
-        return lag[data]
-    if kind == "delay":
-        return u(data[0], t - data[1])
-    if kind == "friction":
-        Fc, b, v0 = data
-        return (Fc + b * jnp.abs(v)) * jnp.tanh(v / v0)
-    raise AssertionError(kind)
+#: The kinds of a part of the balance, in the order of :class:`Program`'s flags.
+KINDS = ("mono", "tanh", "memory", "lag", "delay", "friction", "accel")
+#: Parts are padded to a multiple of this, powers to this degree: models of one rig then share
+#: one compiled program (tracing diffrax costs seconds; running a model, milliseconds)
+PARTS, DEGREE = 24, 4
 
 
-def _affine(parts, coefs, t, x, v, q, lag, u):
-    """(alpha, beta) of sum(coef * part) = alpha + beta a."""
-    alpha, beta = 0.0, 0.0
-    for (kind, data, _), c in zip(parts, coefs, strict=True):
-        if kind == "accel":
-            beta = beta + c
-        else:
-            alpha = alpha + c * _value(kind, data, t, x, v, q, lag, u)
-    return alpha, beta
+@dataclass(frozen=True)
+class Program:
+    """An equation's parts as arrays, so that one compiled solver serves every model of the
+    same shape (channels, memory arms, lags): ``side`` +1 on the model side, -1 on the explained
+    side, 0 for padding; ``flags`` one row per kind of :data:`KINDS`; ``powers`` the exponents of
+    x, v and the inputs; the rest each kind's data."""
 
+    side: np.ndarray
+    flags: np.ndarray
+    powers: np.ndarray
+    scale: np.ndarray
+    memory: np.ndarray
+    lag: np.ndarray
+    delay_input: np.ndarray
+    delay: np.ndarray
+    friction: np.ndarray
+    lag_input: np.ndarray  # the input each first-order lag follows
 
-def _structure(parts: tuple) -> tuple:
-    """The parts without their coefficients: what a compiled solver depends on."""
-    return tuple((kind, data) for kind, data, _ in parts)
+    @classmethod
+    def of(cls, eq: Equation, position: str) -> Program:
+        parts = [(+1, p) for p in eq.rhs] + [(-1, p) for p in eq.lhs]
+        n = -(-len(parts) // PARTS) * PARTS
+        channels = ["x", "v", *eq.inputs]
+        out: dict[str, Any] = {
+            "side": np.zeros(n), "flags": np.zeros((len(KINDS), n)),
+            "powers": np.zeros((n, len(channels)), dtype=np.int32), "scale": np.ones(n),
+            "memory": np.zeros(n, dtype=np.int32), "lag": np.zeros(n, dtype=np.int32),
+            "delay_input": np.zeros(n, dtype=np.int32), "delay": np.zeros(n),
+            "friction": np.tile([0.0, 0.0, 1.0], (n, 1)),
+            "lag_input": np.array([eq.inputs.index(name) for name, _ in eq.lags], dtype=np.int32),
+        }  # fmt: skip
+        for i, (side, (kind, data, _)) in enumerate(parts):
+            out["side"][i] = side
+            if kind == "const":
+                kind = "mono"
+            out["flags"][KINDS.index(kind), i] = 1.0
+            if kind == "mono" and data is not None:
+                for name, power in _rename(data, position):
+                    if power > DEGREE:
+                        raise NotSimulable(f"a power {power} above {DEGREE} in the balance")
+                    out["powers"][i, channels.index(name)] += power
+            elif kind == "tanh":
+                out["scale"][i] = data
+            elif kind == "memory":
+                out["memory"][i] = data[0]
+            elif kind == "lag":
+                out["lag"][i] = data
+            elif kind == "delay":
+                out["delay_input"][i], out["delay"][i] = eq.inputs.index(data[0]), data[1]
+            elif kind == "friction":
+                out["friction"][i] = data
+        return cls(**out)
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        return tuple(getattr(self, f.name) for f in fields(self))
 
 
 def _solver(eq: Equation, position: str):
-    """The compiled solver of ``eq``'s structure (coefficients are its arguments)."""
-    return _compiled(_structure(eq.rhs), _structure(eq.lhs), eq.inputs, eq.n_memory,
-                     tuple(name for name, _ in eq.lags), position)  # fmt: skip
+    """The compiled solvers for ``eq``'s shape, and its parts as arrays (:class:`Program`)."""
+    program = Program.of(eq, position)
+    delays = bool(program.flags[KINDS.index("delay")].any())
+    run, batch = _compiled(len(program.side), len(eq.inputs), eq.n_memory, len(eq.lags),
+                           delays)  # fmt: skip
+    arrays = program.arrays()
+    return partial(run, arrays), partial(batch, arrays)
 
 
 @lru_cache(maxsize=32)
-def _compiled(rhs, lhs, names, m, lag_names, position):
-    """A jitted function (ts, count, y0, inputs, cr, cl, taus, lag_times, noise) -> states at
-    ts (``count``: how many of ts are samples, the rest padding)."""
+def _compiled(n_parts: int, n_inputs: int, m: int, n_lags: int, delays: bool):
+    """Jitted functions (program, ts, count, y0, inputs, coef, taus, lag_times, noise) ->
+    states at ts (``count``: how many of ts are samples, the rest padding), one run and one
+    per row of draws, for every equation of this shape."""
     import diffrax
     import jax
     import jax.numpy as jnp
-
-    rhs = tuple((k, _rename(d, position), None) for k, d in rhs)
-    lhs = tuple((k, _rename(d, position), None) for k, d in lhs)
-    lag_inputs = tuple(names.index(name) for name in lag_names)
 
     def interpolator(ts, count, values):
         """Inputs at any time, linear between samples: the sample found from the mean step
@@ -230,43 +254,49 @@ def _compiled(rhs, lhs, names, m, lag_names, position):
 
         return at
 
-    def field(t, y, args):
-        ts, count, table, cr, cl, taus, lag_times = args
-        now = interpolator(ts, count, table)(t)  # the inputs, then the disturbance
+    def parts(t, y, args):
+        """Every part's regressor (its accel flag: the coefficient of a) and coefficient."""
+        program, ts, count, table, coef, _, _ = args
+        side, flags, powers, scale, memory, lag_of, delay_input, delay, friction, _ = program
         at = interpolator(ts, count, table)
+        now = at(t)  # the inputs, then the disturbance
+        x, v = y[0], y[1]
+        z = jnp.concatenate([jnp.stack([x, v]), now[:n_inputs]])
+        table_z = jnp.stack([z**k for k in range(DEGREE + 1)])  # (degree + 1, channels)
+        mono = jnp.prod(table_z[powers, jnp.arange(z.shape[0])], axis=1)
+        value = flags[0] * mono + flags[1] * jnp.tanh(v / scale)
+        if m:
+            value = value + flags[2] * y[2 + memory]
+        if n_lags:
+            value = value + flags[3] * y[2 + m + lag_of]
+        if delays:
+            late = jax.vmap(at)(t - delay)[jnp.arange(delay.shape[0]), delay_input]
+            value = value + flags[4] * late
+        fc, b, v0 = friction[:, 0], friction[:, 1], friction[:, 2]
+        value = value + flags[5] * (fc + b * jnp.abs(v)) * jnp.tanh(v / v0)
+        return value * (1 - flags[6]), flags[6], side * coef, now, side
 
-        def u(name, when):
-            i = names.index(name)
-            return now[i] if when is t else at(when)[i]
-
-        x, v, q, lag = y[0], y[1], y[2 : 2 + m], y[2 + m :]
-        a_r, b_r = _affine(rhs, cr, t, x, v, q, lag, u)
-        a_r = a_r + now[-1]  # a disturbance force (zero but in a band)
-        a_l, b_l = _affine(lhs, cl, t, x, v, q, lag, u)
-        a = (a_r - a_l) / (b_l - b_r)
-        dq = -q / taus + v
-        dlag = lag
-        if lag_inputs:
-            dlag = (now[jnp.array(lag_inputs)] - lag) / lag_times
+    def field(t, y, args):
+        value, accel, coef, now, _ = parts(t, y, args)
+        taus, lag_times, lag_input = args[5], args[6], args[0][-1]
+        alpha = jnp.sum(coef * value) + now[-1]  # the disturbance is a force on the model side
+        a = -alpha / jnp.sum(coef * accel)
+        v = y[1]
+        dq = -y[2 : 2 + m] / taus + v
+        lag = y[2 + m :]
+        dlag = (now[lag_input] - lag) / lag_times if n_lags else lag
         return jnp.concatenate([jnp.stack([v, a]), dq, dlag])
 
     def explained(t, y, args):
-        ts, count, table, _, cl, _, _ = args
-        at = interpolator(ts, count, table)
-        now = at(t)
+        value, accel, coef, _, side = parts(t, y, args)
+        a = field(t, y, args)[1]
+        lhs = side < 0  # the explained side
+        return -jnp.sum(jnp.where(lhs, coef * value, 0.0)) - jnp.sum(
+            jnp.where(lhs, coef * accel, 0.0)) * a  # fmt: skip
 
-        def u(name, when):
-            i = names.index(name)
-            return now[i] if when is t else at(when)[i]
-
-        dy = field(t, y, args)
-        x, v, q, lag = y[0], y[1], y[2 : 2 + m], y[2 + m :]
-        a_l, b_l = _affine(lhs, cl, t, x, v, q, lag, u)
-        return a_l + b_l * dy[1]
-
-    def solve(ts, count, y0, values, cr, cl, taus, lag_times, noise, *, fixed: bool):
+    def solve(program, ts, count, y0, values, coef, taus, lag_times, noise, *, fixed: bool):
         table = jnp.concatenate([values, noise[None]])  # once, not at every evaluation
-        args = (ts, count, table, cr, cl, taus, lag_times)
+        args = (program, ts, count, table, coef, taus, lag_times)
         step = (ts[count - 1] - ts[0]) / (count - 1)
         control = diffrax.ConstantStepSize() if fixed else diffrax.PIDController(
             rtol=1e-6, atol=1e-9)  # fmt: skip
@@ -282,7 +312,7 @@ def _compiled(rhs, lhs, names, m, lag_names, position):
     # The band's draws: one per row of the coefficients, the relaxation times and the
     # disturbance, each at steps of one sample (a disturbance sampled as noise has a kink at
     # every sample, where an error-controlled step would shrink to nothing)
-    batch = jax.vmap(partial(solve, fixed=True), in_axes=(None, None, None, None, 0, None, 0,
+    batch = jax.vmap(partial(solve, fixed=True), in_axes=(None, None, None, None, None, 0, 0,
                                                           None, 0))  # fmt: skip
     return jax.jit(partial(solve, fixed=False)), jax.jit(batch)
 
@@ -415,6 +445,13 @@ class Simulator:
             np.array([T for _, T in eq.lags], dtype=float),
         )
 
+    def _full(self, cr: np.ndarray, cl: np.ndarray) -> np.ndarray:
+        """Both sides' coefficients in the program's part order, padded to its length (one
+        shape for every model of the rig: one compiled program)."""
+        out = np.zeros(-(-(len(cr) + len(cl)) // PARTS) * PARTS)
+        out[: len(cr)], out[len(cr) : len(cr) + len(cl)] = cr, cl
+        return out
+
     def integrate(self, t, inputs, x0: float, v0: float = 0.0, memory0=None, *,
                   coefficients=None, disturbance=None) -> Trajectory:  # fmt: skip
         """Run from (x0, v0) and the memory arms' states ``memory0`` (default: at rest) over
@@ -439,7 +476,7 @@ class Simulator:
         if disturbance is not None:
             noise[:n] = disturbance
         with jax.enable_x64(True):
-            arrays = (ts, np.int32(n), y0, values, cr, cl, taus, lag_times, noise)
+            arrays = (ts, np.int32(n), y0, values, self._full(cr, cl), taus, lag_times, noise)
             ys, force, ok = self.run(*(jnp.asarray(a) for a in arrays))
             ys, force = np.asarray(ys)[:n], np.asarray(force)[:n]
         output = any(k == "accel" for k, _, _ in eq.lhs)
@@ -457,13 +494,13 @@ class Simulator:
             eq.inputs) else np.zeros((0, len(ts)))  # fmt: skip
         lags0 = [values[eq.inputs.index(name), 0] for name, _ in eq.lags]
         y0 = np.concatenate([[x0, v0], np.asarray(memory0, dtype=float), lags0])
-        cr = np.stack([d[0] for d in draws])
+        coef = np.stack([self._full(d[0], d[1]) for d in draws])
         taus = np.stack([d[2] for d in draws])
-        cl, lag_times = draws[0][1], draws[0][3]
+        lag_times = draws[0][3]
         noise = np.zeros((len(draws), len(ts)))
         noise[:, :n] = disturbances
         with jax.enable_x64(True):
-            arrays = (ts, np.int32(n), y0, values, cr, cl, taus, lag_times, noise)
+            arrays = (ts, np.int32(n), y0, values, coef, taus, lag_times, noise)
             ys, _, _ = self.batch(*(jnp.asarray(a) for a in arrays))
             return np.asarray(ys)[:, :n, 0]
 
