@@ -62,7 +62,9 @@ def test_bad_input_is_never_silent(name, tmp_path, capsys):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["pressure_constant", "position_reversed"])
 def test_strict_makes_a_finding_an_error(name, tmp_path, capsys):
-    status, _, err = _run(case(name, tmp_path / name), tmp_path / "results", capsys, "--strict")
+    status, _, err = _run(
+        case(name, tmp_path / name), tmp_path / "results", capsys, "--strict", "--quiet"
+    )
     assert status == 2
     assert err.startswith("hmid run: error: --strict: ") and CASES[name][1] in err
     (manifest,) = (tmp_path / "results" / "bad").glob("*/manifest.json")
