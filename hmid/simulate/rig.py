@@ -10,7 +10,9 @@ A rig (:mod:`hmid.simulate.rigs`) states its physics and nothing else:
 
 :func:`integrate` does the rest, once for every rig: the scan over samples under ``jax.jit``
 (compiled once per rig, log length and substep count), float64, the sample times, and the check
-that the run stayed finite. The rig's data sets (its logs, sensors and truth record) follow the
+that the run stayed finite. :func:`closed_loop` runs the same rig under a controller that reads
+the rig's outputs and sets its inputs at every sample (the control of :mod:`hmid.control`). The
+rig's data sets (its logs, sensors and truth record) follow the
 contract of :mod:`hmid.simulate.dataset`; :mod:`hmid.simulate.write` writes any of them.
 """
 
@@ -19,9 +21,11 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Protocol
 
+import equinox as eqx
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from hmid.errors import SimulationError
@@ -81,7 +85,9 @@ class SimulatedRig(ABC):
         """(params, initial state, per-sample inputs), each a pytree of float64 values.
 
         ``inputs`` holds the rig's per-sample inputs as NumPy arrays of one length; params carry
-        everything :meth:`sample` needs beside the state, the time steps included.
+        everything :meth:`sample` needs beside the state, the time steps included. The
+        per-sample inputs are a tuple in the order of ``inputs`` (what :func:`closed_loop`
+        replaces a controller's commands into).
         """
 
     @staticmethod
@@ -140,3 +146,89 @@ def integrate(
             f"{rig.diverged}"
         )
     return rig.trajectory(t, rate, inputs, out)
+
+
+class Controller(Protocol):
+    """A discrete-time controller that :func:`closed_loop` runs inside the rig's scan (JAX).
+
+    ``init()`` is its state at t = 0; ``step(state, measured, reference)`` reads the rig's
+    outputs of the previous sample (name -> value; at k = 0 the rig's initial outputs as
+    ``initial_outputs`` gives them) and sample k's reference (a pytree slice of the references),
+    and returns its new state and the commands for sample k (input name -> value).
+    """
+
+    def init(self) -> Any: ...
+
+    def step(
+        self, state: Any, measured: Mapping[str, Any], reference: Any
+    ) -> tuple[Any, Mapping[str, Any]]: ...
+
+
+@eqx.filter_jit
+def _closed_scan(sample: Callable, controller, params, init, inputs, refs, names, out0,
+                 substeps: int):  # fmt: skip
+    where = {name: i for i, name in enumerate(names)}
+
+    def body(carry, xs):
+        state, memory, last = carry
+        given, ref = xs
+        memory, commands = controller.step(memory, last, ref)
+        given = list(given)
+        for name, value in commands.items():
+            given[where[name]] = jnp.asarray(value, dtype=given[where[name]].dtype)
+        state, out = sample(params, state, tuple(given), substeps)
+        return (state, memory, out), (out, commands)
+
+    _, (out, commands) = jax.lax.scan(body, (init, controller.init(), out0), (inputs, refs))
+    return out, commands
+
+
+def closed_loop(
+    rig: SimulatedRig,
+    controller: Controller,
+    references: Any,
+    rate: float,
+    *,
+    initial_inputs: Mapping[str, Any],
+    initial_outputs: Mapping[str, float],
+    substeps: int = 20,
+) -> tuple[Trajectory, dict[str, np.ndarray]]:
+    """Run ``rig`` under ``controller`` at ``rate`` Hz: the trajectory and the commands it gave.
+
+    ``initial_inputs`` are per-sample arrays as :func:`integrate` takes them (the first input
+    sets the length and the rig's initial state; inputs the controller does not command keep
+    these values); ``initial_outputs`` are what the controller reads before the first sample
+    (the rig's outputs by name, every one the rig's ``sample`` returns). ``references`` is a
+    pytree of NumPy arrays of that length. Compiled once per rig, controller and length: a
+    controller's array fields are traced (new gains as arrays do not recompile), its other fields
+    are static (equinox's ``filter_jit``).
+    """
+    inputs = {k: np.asarray(v) for k, v in initial_inputs.items() if v is not None}
+    with jax.enable_x64(True):
+        params, init, xs = rig.prepare(inputs, rate, substeps)
+        # float64 only inside the x64 context: a reference made outside it would be float32
+        references = jax.tree.map(lambda a: jnp.asarray(np.asarray(a)), references)
+        out0 = {k: jnp.asarray(v, dtype=float) for k, v in initial_outputs.items()}
+        probe = jax.eval_shape(
+            lambda: type(rig).sample(params, init, jax.tree.map(lambda a: a[0], xs), substeps)
+        )[1]
+        missing = sorted(set(probe) - set(out0))
+        if missing:
+            raise ValueError(f"initial_outputs lacks the {rig.name} rig's outputs {missing}")
+        out0 = {k: jnp.asarray(out0[k], dtype=probe[k].dtype) for k in probe}
+        out, commands = _closed_scan(
+            type(rig).sample, controller, params, init, xs, references, rig.inputs, out0,
+            substeps,
+        )  # fmt: skip
+        out = {k: np.asarray(v) for k, v in out.items()}
+        commands = {k: np.asarray(v) for k, v in commands.items()}
+    n = len(out[rig.finite[0]])
+    t = np.arange(rig.first_sample, n + rig.first_sample) / rate
+    bad = ~np.logical_and.reduce([np.isfinite(out[k]) for k in rig.finite])
+    if bad.any():
+        raise SimulationError(
+            f"the {rig.name} closed loop left finite values at t = {t[np.argmax(bad)]:.4f} s; "
+            f"{rig.diverged}, and the controller's gains"
+        )
+    driven = {**inputs, **commands}
+    return rig.trajectory(t, rate, driven, out), commands
