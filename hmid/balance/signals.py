@@ -20,7 +20,6 @@ that memory and lag terms read, so every column is evaluated on whole segments a
 from __future__ import annotations
 
 import itertools
-import threading
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
@@ -30,6 +29,7 @@ from typing import TYPE_CHECKING, TypeVar
 import numpy as np
 import pandas as pd
 
+from hmid.balance.memo import Memo
 from hmid.errors import ConfigError
 from hmid.signal.blocks import local_smoother, smoothed_by_blocks, smoothed_span
 
@@ -39,28 +39,6 @@ if TYPE_CHECKING:
 _T = TypeVar("_T")
 
 REQUIRED = ("log", "segment", "t", "target", "usable", "train", "validation")
-
-_VERSIONS = itertools.count()  # a column's version: new whenever a derived set replaces it
-_READING = threading.local()  # the open recordings of what is read (see :func:`recording`)
-
-
-@contextmanager
-def recording() -> Iterator[set]:
-    """The (column, version) pairs read from any :class:`Signals` inside the block (a missing
-    column read as version None), those behind cached derived values included: what a value
-    computed in the block depends on, so that it can be reused wherever they are the same."""
-    stack = _READING.__dict__.setdefault("stack", [])
-    found: set = set()
-    stack.append(found)
-    try:
-        yield found
-    finally:
-        stack.pop()
-
-
-def _noted(deps: tuple | frozenset) -> None:
-    for found in getattr(_READING, "stack", ()):
-        found.update(deps)
 
 
 def raw(channel: str) -> str:
@@ -79,9 +57,9 @@ class Signals:
     channels: tuple[str, ...]
     position: str | None = None
     smoother: Smoother | None = None
-    # columns and transformed signals computed from these rows (a new set starts empty)
-    cache: dict = field(default_factory=dict, compare=False, repr=False)
-    # each column's version: a derived set shares the versions of the columns it keeps
+    #: what is computed from these rows and the sets derived from them (:mod:`hmid.balance.memo`)
+    memo: Memo = field(default_factory=Memo, compare=False, repr=False)
+    # each column's version (from the memo): a derived set shares those of the columns it keeps
     versions: Mapping[str, int] | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -92,7 +70,7 @@ class Signals:
             raise ValueError("a row cannot be both training and held-out")
         object.__setattr__(self, "units", MappingProxyType(dict(self.units)))
         if self.versions is None:
-            versions = {c: next(_VERSIONS) for c in self.frame.columns}
+            versions = self.memo.versions(self.frame.columns)
             object.__setattr__(self, "versions", MappingProxyType(versions))
 
     @classmethod
@@ -121,16 +99,18 @@ class Signals:
                 out[raw(channel)] = out[channel]
         return cls(out, units, channels, position, smoother)
 
-    # read-only mappings do not pickle; the stage cache pickles signals. Versions are this
-    # process's: a loaded set gets new ones
+    # read-only mappings do not pickle; the stage cache pickles signals. The memo and its
+    # versions are this process's: a loaded set starts a new memo
     def __getstate__(self) -> dict:
-        return self.__dict__ | {"units": dict(self.units), "cache": {}, "versions": None}
+        state = self.__dict__ | {"units": dict(self.units)}
+        return {k: v for k, v in state.items() if k not in ("memo", "versions")}
 
     def __setstate__(self, state: dict) -> None:
         for name, value in state.items():
             object.__setattr__(self, name, MappingProxyType(value) if name == "units" else value)
-        versions = {c: next(_VERSIONS) for c in self.frame.columns}
-        object.__setattr__(self, "versions", MappingProxyType(versions))
+        memo = Memo()
+        object.__setattr__(self, "memo", memo)
+        object.__setattr__(self, "versions", MappingProxyType(memo.versions(self.frame.columns)))
 
     @property
     def _versions(self) -> Mapping[str, int]:
@@ -141,18 +121,24 @@ class Signals:
     def __len__(self) -> int:
         return len(self.frame)
 
+    @property
+    def cache(self) -> dict:
+        """This set's values in its memo (columns, transformed signals, Gram blocks)."""
+        return self.memo.store(self)
+
     def __getitem__(self, column: str) -> np.ndarray:
         versions = self._versions
         if column in versions:
-            _noted(((column, versions[column]),))
+            self.memo.noted(((column, versions[column]),))
         # pandas' column lookup costs ~0.2 ms on an index of strings; profiling reads thousands
-        found = self.cache.get(("array", column))
+        cache = self.cache
+        found = cache.get(("array", column))
         if found is None:
-            found = self.cache[("array", column)] = self.frame[column].to_numpy()
+            found = cache[("array", column)] = self.frame[column].to_numpy()
         return found
 
     def __contains__(self, column: str) -> bool:
-        _noted(((column, self._versions.get(column)),))
+        self.memo.noted(((column, self._versions.get(column)),))
         return column in self.frame.columns
 
     @property
@@ -178,33 +164,19 @@ class Signals:
         return self[role]
 
     def derived(self, key: object, compute: Callable[[], _T]) -> _T:
-        """``compute()``, once per signals and ``key`` (kept in :attr:`cache`); what it read is
-        noted again on every reuse, so a recording around the caller sees it."""
-        found = self.cache.get(key)
-        if found is None:
-            with recording() as deps:
-                value = compute()
-            found = self.cache[key] = (value, frozenset(deps))
-        _noted(found[1])
-        return found[0]
+        """``compute()``, once per signals and ``key`` (:meth:`Memo.derived`)."""
+        return self.memo.derived(self, key, compute)
 
     @contextmanager
     def scoped(self) -> Iterator[Signals]:
-        """What is cached inside the block is dropped after it (entries appended to a cached
-        list are cut back): a candidate's transformed signals and their columns are of no use
-        to the next, and the loop would otherwise hold gigabytes of them."""
-        before = {key: len(v) if isinstance(v, list) else None for key, v in self.cache.items()}
-        try:
+        """What is kept for this set inside the block is dropped after it
+        (:meth:`Memo.scoped`)."""
+        with self.memo.scoped(self):
             yield self
-        finally:
-            for key in [key for key in self.cache if key not in before]:
-                del self.cache[key]
-            for key, length in before.items():
-                if length is not None:
-                    del self.cache[key][length:]
 
     def reads_same(self, deps) -> bool:
-        """Whether every (column, version) of ``deps`` (from :func:`recording`) holds here."""
+        """Whether every (column, version) of ``deps`` (from :meth:`Memo.recording`) holds
+        here."""
         return all(self._versions.get(column) == version for column, version in deps)
 
     def segments(self) -> Iterator[np.ndarray]:
@@ -299,14 +271,12 @@ class Signals:
 
     # -- derived sets -------------------------------------------------------------------------
     def with_columns(self, **columns: np.ndarray) -> Signals:
-        versions = {**self._versions, **{c: next(_VERSIONS) for c in columns}}
+        versions = {**self._versions, **self.memo.versions(columns)}
         # taken as they are, not copied (pandas copies a bare array): a long log's new columns
         # are held once; the caller lets go of them (the frame's columns are read-only)
         index = self.frame.index
         shared = {c: pd.Series(v, index=index, copy=False) for c, v in columns.items()}
-        return replace(
-            self, frame=self.frame.assign(**shared), cache={}, versions=MappingProxyType(versions)
-        )
+        return replace(self, frame=self.frame.assign(**shared), versions=MappingProxyType(versions))
 
     def with_roles(self, train: np.ndarray, validation: np.ndarray) -> Signals:
         usable = self.usable
@@ -331,7 +301,7 @@ class Signals:
         order."""
         keep = self.rows(role)
         names = ["log", "t", *columns] if keys else list(columns)
-        _noted(tuple((c, self._versions.get(c)) for c in names))
+        self.memo.noted(tuple((c, self._versions.get(c)) for c in names))
         return self.frame.loc[keep, names].reset_index(drop=True)
 
 

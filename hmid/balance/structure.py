@@ -9,7 +9,6 @@ effective sample size.
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass, field, replace
 from functools import cached_property, partial
 
@@ -18,7 +17,7 @@ import pandas as pd
 
 from hmid.balance.columns import Columns, LeastSquares, Plan, plan
 from hmid.balance.inference import inference
-from hmid.balance.signals import Signals, recording
+from hmid.balance.signals import Signals
 from hmid.balance.terms import Hyper, Term
 from hmid.metrics import Scores, score
 
@@ -97,9 +96,6 @@ class Structure:
         return plan(len(signals), parts, rows, signals.cache)
 
 
-_KEYS = itertools.count()
-
-
 def _term_columns(store: dict, seen: Signals, placed: Placed) -> tuple[int, Columns]:
     """A term's columns on ``seen``, and their key in ``store``: computed once for every set of
     the columns they read (a sensor effect on P changes neither the columns nor the Gram blocks
@@ -108,9 +104,9 @@ def _term_columns(store: dict, seen: Signals, placed: Placed) -> tuple[int, Colu
     for key, deps, columns in entries:
         if seen.reads_same(deps):
             return key, columns
-    with recording() as deps:
+    with seen.memo.recording() as deps:
         columns = placed.term.columns(seen, placed.value)
-    key = next(_KEYS)  # names these columns in every memo (an int hashes fast)
+    key = seen.memo.key()
     entries.append((key, frozenset(deps), columns))
     return key, columns
 

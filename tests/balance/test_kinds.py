@@ -93,8 +93,7 @@ def test_a_power_of_a_logged_channel_is_smoothed_after_it_is_evaluated():
     """The measured force holds S[k3 x³] (the smoother S acts on the force); the regressor must
     be S[x_raw³], not (S x)³: their difference, ≈ 3x·var(x) within the kernel, is even in v and
     was read by the loop as direction-dependent Stribeck friction on the knee rig."""
-    from dataclasses import replace
-
+    from hmid.balance.signals import Signals
     from hmid.balance.structure import Structure, fit_structure
     from hmid.signal import MovingAverage
 
@@ -105,7 +104,7 @@ def test_a_power_of_a_logged_channel_is_smoothed_after_it_is_evaluated():
     frame["x"] = np.concatenate(
         [smoother(t[r], frame["raw:x"].to_numpy()[r]) for r in plain.segments()]
     )
-    signals = replace(plain, frame=frame, smoother=smoother, cache={})
+    signals = Signals(frame, plain.units, plain.channels, plain.position, smoother)
     k3 = 2e6
     signals = signals.with_columns(target=-k3 * signals.smooth(signals["raw:x"] ** 3))
     term = make_term({"kind": "channel", "name": "k3", "channel": "x^3", "sign": -1})

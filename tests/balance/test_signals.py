@@ -1,16 +1,21 @@
-"""What a value computed from signals read, so that it is reused only where that is unchanged."""
+"""What a value computed from signals read, so that it is reused only where that is unchanged;
+the memo that keeps such values, outside the signals."""
+
+import gc
+import pickle
 
 import numpy as np
+import pytest
 from _balance_data import signals_with
 
-from hmid.balance.signals import recording
+from hmid.balance.memo import Memo
 
 
 def test_a_cached_derived_value_still_reports_what_it_read():
     signals = signals_with()
-    with recording() as first:
+    with signals.memo.recording() as first:
         once = signals.derived(("double x",), lambda: 2 * signals["x"])
-    with recording() as again:  # a cache hit reads nothing, yet depends on x
+    with signals.memo.recording() as again:  # a cache hit reads nothing, yet depends on x
         twice = signals.derived(("double x",), lambda: 2 * signals["x"])
     assert once is twice
     assert ("x", signals.versions["x"]) in first and first == again
@@ -18,14 +23,14 @@ def test_a_cached_derived_value_still_reports_what_it_read():
 
 def test_a_derived_set_keeps_the_versions_of_the_columns_it_keeps():
     signals = signals_with()
-    with recording() as deps:
+    with signals.memo.recording() as deps:
         signals["x"], signals["P"]
     scaled = signals.with_columns(P=2 * signals["P"])
     assert scaled.versions["x"] == signals.versions["x"]
     assert scaled.versions["P"] != signals.versions["P"]
     assert signals.reads_same(deps) and not scaled.reads_same(deps)
     assert scaled.with_columns().reads_same({("x", signals.versions["x"])})
-    with recording() as absent:
+    with signals.memo.recording() as absent:
         assert "nothing" not in signals
     assert signals.reads_same(absent) and not signals.with_columns(
         nothing=np.ones(len(signals))
@@ -34,8 +39,8 @@ def test_a_derived_set_keeps_the_versions_of_the_columns_it_keeps():
 
 def test_nested_recordings_each_see_every_read():
     signals = signals_with()
-    with recording() as outer:
-        with recording() as inner:
+    with signals.memo.recording() as outer:
+        with signals.memo.recording() as inner:
             signals.role_frame("train", ("x",))
     assert inner == outer and ("x", signals.versions["x"]) in inner
 
@@ -50,6 +55,28 @@ def test_what_is_cached_in_a_scope_is_dropped_after_it():
         assert ("dropped",) in signals.cache
     assert ("kept",) in signals.cache and ("dropped",) not in signals.cache
     assert signals.cache["list"] == [1]
+
+
+def test_a_derived_set_shares_its_memo_and_a_dropped_set_leaves_nothing_in_it():
+    signals = signals_with()
+    doubled = signals.with_columns(P=2 * signals["P"])
+    assert doubled.memo is signals.memo
+    x = doubled["x"]
+    doubled.derived(("x2",), lambda: 2 * x)
+    stores = len(signals.memo)
+    del doubled
+    gc.collect()
+    assert len(signals.memo) == stores - 1
+
+
+def test_a_pickled_set_starts_a_new_memo_and_a_memo_never_pickles():
+    signals = signals_with()
+    signals.derived(("kept",), lambda: 1)
+    loaded = pickle.loads(pickle.dumps(signals))
+    assert loaded.memo is not signals.memo and ("kept",) not in loaded.cache
+    assert list(loaded.versions) == list(signals.versions)
+    with pytest.raises(TypeError, match="pickle the signals"):
+        pickle.dumps(Memo())
 
 
 def test_new_columns_are_held_once_and_the_set_they_came_from_is_unchanged():
