@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from functools import cache
 
+from threadpoolctl import ThreadpoolController
+
 
 @cache
 def _controller():
-    from threadpoolctl import ThreadpoolController
 
     return ThreadpoolController()  # finding the loaded libraries costs ~3 ms: once
 

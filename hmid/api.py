@@ -23,6 +23,7 @@ from functools import cached_property
 from pathlib import Path
 
 import pandas as pd
+import yaml
 
 from hmid.errors import ConfigError
 from hmid.portable import Model, load_model
@@ -67,8 +68,6 @@ class Run:
     @cached_property
     def rig(self):
         """The rig section the run declared (:class:`~hmid.balance.RigSection`)."""
-        import yaml
-
         from hmid.balance import RigSection
 
         config = yaml.safe_load((self.folder / "config.yaml").read_text(encoding="utf-8"))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import errno
+import gc
 import os
 import signal
 import sys
@@ -11,7 +12,14 @@ import threading
 import warnings
 from pathlib import Path
 
+from tqdm import tqdm
+
 from hmid.errors import ConfigError, HmidError, HmidWarning
+from hmid.files import fresh_dir
+from hmid.pipeline.compilation import use_compilation_cache
+from hmid.progress import VARIABLE, Progress
+from hmid.runs import list_runs, remove_runs
+from hmid.workers import Tasks, allow_workers
 
 _DESCRIPTION = """\
 hmid: system identification of soft fluidic actuators (the Hydro Muscle).
@@ -31,9 +39,7 @@ commands:
 
 
 def _simulate(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
 
-    from hmid.files import fresh_dir
     from hmid.simulate.datasets import load_dataset_config
     from hmid.simulate.write import write_dataset
 
@@ -52,9 +58,6 @@ def _simulate(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     from hmid.io.units import UNIT_CACHE_VARIABLE
-    from hmid.pipeline.compilation import use_compilation_cache
-    from hmid.progress import VARIABLE, Progress
-    from hmid.workers import Tasks, allow_workers
 
     if Path(args.results).is_file():  # said before anything is made beside it
         raise NotADirectoryError(20, "Not a directory", str(args.results))
@@ -141,7 +144,6 @@ def _summary(args: argparse.Namespace) -> int:
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
 
     from hmid.sweep import execute
     from pipelines.sweep import identify, plan
@@ -179,7 +181,6 @@ def _sweep(args: argparse.Namespace) -> int:
 
 
 def _blind(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
 
     from hmid.blind import load_suite, plan_cases
     from hmid.report.markdown import markdown_table
@@ -201,7 +202,6 @@ def _blind(args: argparse.Namespace) -> int:
 
 
 def _runs(args: argparse.Namespace) -> int:
-    from hmid.runs import list_runs, remove_runs
 
     entries = list_runs(Path(args.root))
     if args.failed or args.remove_failed:
@@ -433,7 +433,6 @@ def entry() -> None:
     machine's load; 0.3 s frozen) only to find what the process's end frees anyway. Exit
     handlers run and modules are torn down as usual."""
     code = main()
-    import gc
 
     gc.freeze()
     raise SystemExit(code)

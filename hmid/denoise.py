@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 from hmid.errors import LogError, SignalError
 from hmid.io.log import Log
+from hmid.io.plausibility import unit_factor
 from hmid.io.segments import split_at_gaps
 from hmid.signal import Differentiator, Smoother, estimate_motion
 
@@ -97,7 +98,6 @@ def check_time_base(log: Log, window_s: float, time_unit: str) -> None:
     step = 1.0 / log.sample_rate
     if window_s >= step / 2:  # the moving average's own limit: a window of one sample
         return
-    from hmid.io.plausibility import unit_factor
 
     better = [
         unit

@@ -27,6 +27,7 @@ from hmid.balance.rig import RigSection
 from hmid.config import read_yaml
 from hmid.errors import ConfigError
 from hmid.families import FamilySpec, make_family
+from hmid.io import load_column_map
 from hmid.loop.config import LoopSpec
 from hmid.signal import (
     DerivativeOfSmoothed,
@@ -248,7 +249,6 @@ def experiment_from(data: Mapping[str, Any], source: str, base_dir: Path) -> Exp
 def log_units(config: ExperimentConfig) -> dict[str, str]:
     """SI units of the rig's channels and of the explained quantity, read from the column maps
     of the dynamic logs (which must all give them, in units of the same dimension)."""
-    from hmid.io import load_column_map
     from hmid.io.units import si_unit
 
     found: dict[str, str] = {}

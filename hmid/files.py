@@ -10,12 +10,15 @@ import hashlib
 import json
 import os
 import tempfile
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from hmid.errors import HmidError
+from filelock import FileLock, Timeout
+
+from hmid.errors import HmidError, HmidWarning
 
 
 @contextmanager
@@ -45,12 +48,6 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
 def held(lock_path: str | Path, waiting: str) -> Iterator[None]:
     """Hold the file lock ``lock_path`` for the block; if another process holds it, say
     ``waiting`` (a one-line :class:`~hmid.errors.HmidWarning`) and wait for it."""
-    import warnings
-
-    from filelock import FileLock, Timeout
-
-    from hmid.errors import HmidWarning
-
     lock = FileLock(lock_path)
     try:
         lock.acquire(timeout=0)

@@ -16,6 +16,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, TextIO
 
+from tqdm import tqdm
+
 #: Set to "1" by a command that shows bars; read by the parts that draw them (also in workers).
 VARIABLE = "HMID_PROGRESS"
 
@@ -45,8 +47,6 @@ class Progress:
     def stages(self, names: list[str]) -> Progress:
         """Begin the bar over ``names`` (a terminal only)."""
         if self.bars:
-            from tqdm import tqdm
-
             self._bar = tqdm(total=len(names), desc=self.label, unit="stage", file=self.stream,
                              bar_format="{desc}: {n}/{total} stages |{bar:20}| {elapsed}{postfix}",
                              leave=False)  # fmt: skip
@@ -79,7 +79,6 @@ class Progress:
         if not self.bars or total <= 0:
             yield lambda: None
             return
-        from tqdm import tqdm
 
         with tqdm(total=total, desc=f"{self.label}: {what}", file=self.stream,
                   leave=False) as bar:  # fmt: skip

@@ -26,7 +26,7 @@ from importlib import metadata
 from pathlib import Path
 
 from hmid.errors import HmidError
-from hmid.files import sha256, write_json
+from hmid.files import sha256, write_json, write_text
 
 _RUN_ID = re.compile(r"^\d{8}T\d{6}Z-[0-9a-f]{8}(-\d+)?$")
 
@@ -164,8 +164,6 @@ def open_run(
     """A new run folder holding the config file (as ``copy_as``) and a manifest that says
     ``running``; it says ``complete`` when the block ends, ``failed`` (with the error) when it
     raises or is interrupted."""
-    from hmid.files import write_text
-
     path = new_run_dir(Path(results), name, resolved).resolve()
     manifest = Manifest(path, json.loads(resolved), seed)
     for item in [Path(config_path), *inputs]:

@@ -11,15 +11,21 @@ task no worker has begun (:meth:`Tasks.results`), so work is shared however long
 from __future__ import annotations
 
 import atexit
+import importlib
+import multiprocessing
 import os
 import signal
+import threading
 import warnings
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass
+from multiprocessing import active_children, get_context
 from typing import Any
+
+from tqdm import tqdm
 
 from hmid.errors import ConfigError
 
@@ -44,8 +50,6 @@ def default_workers() -> int:
     none unless :func:`allow_workers` was called; else one worker where there is a second core
     (none on one core: it would only compete with the run; more than one costs each its
     imports)."""
-    import multiprocessing
-
     if multiprocessing.parent_process() is not None:
         return 0
     said = os.environ.get(WORKERS_VARIABLE)
@@ -67,8 +71,6 @@ def _warm(modules: tuple[str, ...]) -> None:
     """A task that makes the pool spawn a worker (it spawns them as tasks come) and has it
     import ``modules``; ``"module:function"`` also calls the function (e.g. to build a
     registry that the first task would otherwise wait for)."""
-    import importlib
-
     for entry in modules:
         name, _, function = entry.partition(":")
         module = importlib.import_module(name)
@@ -82,7 +84,6 @@ class _Pool:
     be stopped without waiting for their tasks."""
 
     def __init__(self, workers: int) -> None:
-        from multiprocessing import get_context
 
         self.executor = ProcessPoolExecutor(
             workers, mp_context=get_context("spawn"), initializer=_worker_start
@@ -90,7 +91,6 @@ class _Pool:
         self.processes: set = set()
 
     def submit(self, fn: Callable[..., Any], /, *args: Any) -> Future:
-        from multiprocessing import active_children
 
         before = set(active_children())
         with _interrupts_blocked():
@@ -133,10 +133,6 @@ def _worker_start() -> None:
     process: tqdm's default, a multiprocessing lock, stays registered with multiprocessing's
     resource tracker when the worker is killed, and the tracker then warns of a leaked
     semaphore as the program ends."""
-    import threading
-
-    from tqdm import tqdm
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     tqdm.set_lock(threading.RLock())
 

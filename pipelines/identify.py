@@ -8,6 +8,7 @@ import warnings
 from functools import partial
 from pathlib import Path
 
+from hmid.config import read_yaml
 from hmid.errors import ConfigError, DataError, HmidWarning
 from hmid.experiment import ExperimentConfig, load_experiment
 from hmid.files import write_json
@@ -119,7 +120,6 @@ def worker_imports(config_path: Path) -> tuple[str, ...]:
     """What a worker imports first for this experiment: its families' modules, read from the
     file before it is validated, so that the worker starts on them while the run loads (nothing
     if the file does not say: validation reports it, with the file's name)."""
-    from hmid.config import read_yaml
     from hmid.families import FAMILIES
 
     try:

@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+import numpy as np
 import pandas as pd
 
 from hmid.balance.rig import DERIVED
@@ -140,8 +141,6 @@ def motion_findings(rig, signals) -> tuple[SignFinding, ...]:
     the balance fits: a force sensor that reads the inertial force must grow with the
     acceleration; it falls when the position (or the force) is counted the other way, whatever
     family is fitted."""
-    import numpy as np
-
     explained = rig.explained.channels
     if rig.motion is None or rig.position is None or len(explained) != 1:
         return ()

@@ -7,6 +7,7 @@ channels it reads (so that a parameter with the wrong sign can be traced to a ch
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -265,7 +266,5 @@ class LeastSquares:
 
 def _digest(values: np.ndarray) -> bytes:
     """A key for a row mask or a target in the memo (arrays are rebuilt on every access)."""
-    import hashlib
-
     data = np.packbits(values) if values.dtype == bool else np.ascontiguousarray(values)
     return hashlib.blake2b(data.tobytes(), digest_size=16).digest()

@@ -40,6 +40,7 @@ from hmid.balance.kinds import (
 )
 from hmid.balance.monomial import Monomial
 from hmid.errors import ConfigError
+from hmid.io.plausibility import MAX_ACCELERATION, MAX_SPEED, Limits
 
 Positive = Annotated[float, Field(gt=0)]
 DERIVED = ("v", "a")
@@ -211,8 +212,6 @@ class RigSection(_Frozen):
 
     def limits(self):
         """What the rig can do (:class:`hmid.io.plausibility.Limits`), declared or default."""
-        from hmid.io.plausibility import MAX_ACCELERATION, MAX_SPEED, Limits
-
         position = self.channels.get(self.position) if self.position else None
         return Limits(
             max_speed=(position.max_speed if position else None) or MAX_SPEED,

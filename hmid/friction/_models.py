@@ -33,6 +33,8 @@ import numpy as np
 import statsmodels.api as sm
 from scipy.optimize import curve_fit
 
+from hmid.stats import autocov_covariance, fit_ar_white, residual_correlation
+
 if TYPE_CHECKING:
     from hmid.stats import ARWhite
 
@@ -93,8 +95,6 @@ def correlated_covariance(
     (:func:`~hmid.friction.identify_friction`), in place of this fall's own; the df stay this
     fall's n (1 - phi) / (1 + phi), since phi itself is uncertain (with the df of all the
     falls' rows, phi 0.97 falls covered 0.90)."""
-    from hmid.stats import autocov_covariance, fit_ar_white, residual_correlation
-
     n, p = jacobian.shape
     gamma, window, tau_int = residual_correlation(resid)
     lags = window if window is not None else gamma.size - 1

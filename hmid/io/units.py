@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
+from filelock import FileLock
 
 from hmid.errors import UnitError
 from hmid.io.log import CANONICAL_UNITS
@@ -65,7 +66,6 @@ def unit_registry() -> pint.UnitRegistry:
     folder = os.environ.get(UNIT_CACHE_VARIABLE)
     if not folder:
         return pint.UnitRegistry()
-    from filelock import FileLock
 
     try:
         os.makedirs(folder, exist_ok=True)

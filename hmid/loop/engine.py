@@ -14,6 +14,7 @@ import time
 from dataclasses import dataclass, replace
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from hmid.balance import Signals, Structure, StructureFit, profile
 from hmid.families.base import FitData, Fitted
@@ -82,8 +83,6 @@ def run_loop(
     """Diagnose, test, select and add effects; then say what remains. ``across_logs``: the
     held-out rows are whole logs, and selection also leaves every training log out whole
     (the stricter of the two cross-validations decides)."""
-    from threadpoolctl import threadpool_limits
-
     # thousands of small least-squares problems: BLAS threads only contend for the cores
     with threadpool_limits(limits=1, user_api="blas"):
         return _run_loop(signals, base, spec, setting, seed, across_logs)

@@ -17,11 +17,14 @@ from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 
+from threadpoolctl import threadpool_limits
+
 from hmid.balance import Signals, Structure, StructureFit, fit_structure
 from hmid.balance.structure import Placed
 from hmid.loop.candidates import Candidate
 from hmid.loop.screen import Screen, screen
 from hmid.stats import NestedTest
+from hmid.workers import Tasks
 
 #: in a worker: the round it screens (its file's path and what the file holds)
 _ROUND: dict[str, tuple] = {}
@@ -54,8 +57,6 @@ def screen_round(
 ) -> list[Screen]:  # fmt: skip
     """Every candidate screened against ``current`` (in order), shared with ``tasks``' workers
     (:class:`~hmid.workers.Tasks`; default: as many as :func:`~hmid.workers.default_workers`)."""
-    from hmid.workers import Tasks
-
     tasks = Tasks(ahead=1) if tasks is None else tasks
     if not tasks.workers or len(candidates) < 2:
         return [_screen_here(current, c, signals, confidence) for c in candidates]
@@ -88,8 +89,6 @@ def _screen_here(current, candidate, signals, confidence) -> Screen:
 
 def _screen_there(path: str, index: int) -> _Outcome:
     """In a worker: screen candidate ``index`` of the round in ``path``."""
-    from threadpoolctl import threadpool_limits
-
     if path not in _ROUND:
         _ROUND.clear()  # an earlier round's signals and caches
         with open(path, "rb") as file:

@@ -12,6 +12,7 @@ from hmid.balance.inference import CALIBRATED_TAU
 from hmid.loop.plots import plot_pattern, plot_whiteness
 from hmid.loop.result import Effect, LoopResult
 from hmid.report import Figure, Section, Table
+from hmid.workers import draw
 
 
 def before_after(result: LoopResult) -> pd.DataFrame:
@@ -117,8 +118,6 @@ def loop_section(
     """The report section; ``write_csv(frame, name)`` stores a table in the run folder; file
     names start with ``prefix``; ``drawing`` may draw the figures that read only the
     diagnostics (see :func:`~hmid.workers.draw`)."""
-    from hmid.workers import draw
-
     light = replace(result, data=None, residual_before=np.empty(0), residual_after=np.empty(0))
     draw(drawing, plot_whiteness, light, figures / f"{prefix}_whiteness.png")
     plot_pattern(result, figures / f"{prefix}_structure.png")

@@ -3,6 +3,7 @@ and the report document (Markdown + self-contained HTML)."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
@@ -16,6 +17,7 @@ from hmid.files import atomic_path, write_json
 from hmid.pipeline.answer import answer, r2_text
 from hmid.plots import plot_model, plot_scores
 from hmid.report import Figure, Report, Section, Table, write_report
+from hmid.workers import Tasks
 
 #: The thesis accepted a model at R² above 0.85 (Ch. 4); we apply it to held-out data.
 R2_ACCEPT = 0.85
@@ -223,8 +225,6 @@ def simulator_truths(config) -> dict:
     """The simulator's rig as its truth files state it (``<log>.truth.json``, which ``hmid
     simulate`` writes beside each log): their ``rig`` section where every dynamic log has one
     and they agree; empty otherwise."""
-    import json
-
     found: list = []
     for entry in config.logs_with_role("dynamic"):
         path = config.resolve(entry.path).with_suffix(".truth.json")
@@ -569,8 +569,6 @@ def write_outputs(
     figures the models ask for are drawn by ``drawing`` (:class:`~hmid.workers.Tasks`;
     default: its own, started here) while this process writes the rest; ``progress`` (a
     :class:`hmid.progress.Progress`) counts them."""
-    from hmid.workers import Tasks
-
     drawing = Tasks().start(FIGURE_MODULES) if drawing is None else drawing
     run_dir = Path(run_dir).resolve()  # figure paths must not depend on the working directory
     out = _Folders.make(run_dir)

@@ -22,6 +22,7 @@ import warnings
 from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cache
+from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -53,8 +54,6 @@ class Stage:
 def code_fingerprint() -> str:
     """SHA-256 over the source of ``hmid`` and ``pipelines`` and the computing libraries'
     versions: a change to any of them invalidates every cached stage."""
-    from importlib import metadata
-
     digest = hashlib.sha256()
     for package in ("hmid", "pipelines"):
         spec = importlib.util.find_spec(package)

@@ -21,6 +21,8 @@ from hmid.experiment import ExperimentConfig, log_units
 from hmid.families import FitContext, FitData, Fitted
 from hmid.files import sha256
 from hmid.io import Log, load_column_map, read_log
+from hmid.io import plausibility as p
+from hmid.io.plausibility import no_rows, outliers
 from hmid.metrics import score
 from hmid.pipeline.fits import FIT_ERRORS, Fits, fit_or_fail
 from hmid.split import validation_masks
@@ -70,8 +72,6 @@ def _read_channels(config: ExperimentConfig, role: str) -> tuple[str, ...]:
 def _no_absurd_sample(log: Log, path, channels) -> None:
     """A sample no result survives (1e300 N: squares overflow, every fit breaks) stops the run
     here, naming it; a milder outlier is a finding of the inventory."""
-    from hmid.io.plausibility import outliers
-
     for channel in channels:
         found = outliers(path.name, channel, log[channel], log.units[channel])
         if found is not None and found.fatal:
@@ -150,8 +150,6 @@ def inventory(
 def plausibility(config: ExperimentConfig, load: dict[str, LoadedLog], summaries) -> tuple:
     """Every log judged against the physics (:mod:`hmid.io.plausibility`): its channels as
     loaded, and the motion its smoothed position implies."""
-    from hmid.io import plausibility as p
-
     rig, limits = config.rig, config.rig.limits()
     found: list = []
     maps = {log_name(config.resolve(e.path)): config.resolve(e.columns) for e in config.logs}
@@ -303,7 +301,6 @@ class Rows:
 
 def rows(config: ExperimentConfig, split: Split) -> Rows:
     from hmid.balance.signals import raw
-    from hmid.io.plausibility import no_rows
 
     signals = split.signals
     found: list = []

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Annotated, Any, NamedTuple, Protocol
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from hmid import __version__
 from hmid.io.log import Log
 from hmid.io.units import unit_registry
 from hmid.simulate.rig import Trajectory
@@ -129,7 +130,5 @@ def truth_record(
     """The ground-truth record of one log: provenance, the log's spec, the rig's parameters
     (``params``, with its sensors and substeps), then what the rig adds (``tail``: the law's
     true values and the checks on the run)."""
-    from hmid import __version__
-
     head = {"generator": f"hmid {__version__}", **config.truth_kind(), "name": spec.name}
     return head | {"seed": seed, "log": spec.model_dump(mode="json")} | params | tail

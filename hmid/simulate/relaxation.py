@@ -24,6 +24,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from scipy.integrate import solve_ivp
 
 from hmid.errors import SimulationError
+from hmid.files import atomic_path, write_json
 
 
 class RelaxationParams(BaseModel):
@@ -115,8 +116,6 @@ def relax(
 def write_relaxation(run: RelaxationRun, folder) -> list[Relaxation]:
     """``<name>.csv`` (curves of every valve case), ``<name>.png`` and ``<name>.truth.json``."""
     import pandas as pd
-
-    from hmid.files import atomic_path, write_json
 
     results = [relax(run.params, valve) for valve in run.valves]
     curves = pd.concat(

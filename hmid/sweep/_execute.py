@@ -35,6 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
+from threadpoolctl import threadpool_limits
 
 from hmid.errors import ConfigError, HmidError, HmidWarning
 from hmid.sweep._config import ExecutorSection
@@ -63,7 +64,6 @@ def _start_worker(threads: int) -> None:
         return
     for name in _THREAD_VARIABLES:  # read by libraries loaded later (SciPy's own OpenBLAS)
         os.environ[name] = str(threads)
-    from threadpoolctl import threadpool_limits
 
     threadpool_limits(limits=threads)  # libraries loaded already (NumPy's OpenBLAS), for good
 
