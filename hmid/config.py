@@ -3,15 +3,19 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TypeVar
+from typing import Annotated, TypeVar
 
 import yaml
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, Field, ValidationError
 
 from hmid._messages import format_validation_error
 from hmid.errors import ConfigError
 
 M = TypeVar("M", bound=BaseModel)
+
+#: the constrained numbers of every config (SI units)
+Positive = Annotated[float, Field(gt=0)]
+NonNegative = Annotated[float, Field(ge=0)]
 
 
 class _UniqueKeyLoader(yaml.SafeLoader):

@@ -16,7 +16,7 @@ from hmid.io.segments import split_at_gaps
 from hmid.signal import Differentiator, Smoother, estimate_motion
 
 #: Derived channels: the differentiator's estimates, and those through the smoother too.
-DERIVED = ("v", "a_est", "v_s", "a_s")
+DERIVED_COLUMNS = ("v", "a_est", "v_s", "a_s")
 
 
 def denoise_log(

@@ -52,3 +52,14 @@ def where(source: str | None, column: str | None = None, row: int | None = None)
     if row is not None:
         parts.append(f"row {row}")
     return " ".join(parts[:1]) + (": " + " ".join(parts[1:]) if len(parts) > 1 else "") + ": "
+
+
+def one_line(err: BaseException, limit: int = 200, *, name_foreign: bool = False) -> str:
+    """An exception's text on one line, at most ``limit`` characters; ``name_foreign``: a
+    library's own error (not an :class:`HmidError`) is prefixed with its type, so that it is
+    never read as one of hmid's messages."""
+    text = str(err)
+    if name_foreign and not isinstance(err, HmidError):
+        text = f"{type(err).__name__}: {text}"
+    text = " ".join(text.split()) or type(err).__name__
+    return text if len(text) <= limit else text[: limit - 3] + "..."

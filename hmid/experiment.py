@@ -24,7 +24,7 @@ from pydantic import (
 
 from hmid._messages import format_validation_error
 from hmid.balance.rig import RigSection
-from hmid.config import read_yaml
+from hmid.config import Positive, read_yaml
 from hmid.errors import ConfigError
 from hmid.families import FamilySpec, make_family
 from hmid.io import load_column_map
@@ -39,8 +39,6 @@ from hmid.signal import (
     Window,
 )
 from hmid.split import SplitSpec
-
-Positive = Annotated[float, Field(gt=0)]
 
 
 class _Frozen(BaseModel):

@@ -39,10 +39,10 @@ from hmid.balance.kinds import (
     make_term,
 )
 from hmid.balance.monomial import Monomial
+from hmid.config import Positive
 from hmid.errors import ConfigError
 from hmid.io.plausibility import MAX_ACCELERATION, MAX_SPEED, Limits
 
-Positive = Annotated[float, Field(gt=0)]
 DERIVED = ("v", "a")
 
 

@@ -18,7 +18,7 @@ PREDICT_BATCH = 25  # posterior draws predicted at once for the band
 
 #: The longest residual correlation time (samples) at which the widened SLS intervals were
 #: measured: AR(1) phi = 0.8 and the smoothed white noise of benchmarks/bench_sls_calibration.py.
-CALIBRATED_TAU = 20.0
+SLS_CALIBRATED_TAU = 20.0
 
 
 @dataclass(frozen=True)
@@ -123,7 +123,7 @@ class SLSFitted(FittedModel):
         if a is not None:
             return IntervalNote(
                 level, "posterior, widened to the autocovariance sandwich", a.tau_int,
-                CALIBRATED_TAU, "benchmarks/bench_sls_calibration.py", a.window is not None,
+                SLS_CALIBRATED_TAU, "benchmarks/bench_sls_calibration.py", a.window is not None,
             )  # fmt: skip
         if self.noise == "ar1":
             return IntervalNote(level, "posterior, AR(1) likelihood",
@@ -136,12 +136,12 @@ class SLSFitted(FittedModel):
         a = self.adjustment
         if a is not None:
             widest = max(a.widening, key=a.widening.get)
-            within = a.window is not None and a.tau_int <= CALIBRATED_TAU
+            within = a.window is not None and a.tau_int <= SLS_CALIBRATED_TAU
             return (
                 f"{level}, widened to the sandwich covariance for the residual's autocovariance "
                 f"(correlation time {a.tau_int:.3g} samples; widths x{min(a.widening.values()):.2f}"
                 f"-{a.widening[widest]:.2f}, most for {widest}); calibrated for residual "
-                f"correlation times up to {CALIBRATED_TAU:g} samples, this fit "
+                f"correlation times up to {SLS_CALIBRATED_TAU:g} samples, this fit "
                 f"{'within' if within else 'BEYOND'} that range"
             )
         if self.noise == "ar1":

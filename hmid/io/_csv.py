@@ -16,7 +16,7 @@ from itertools import islice
 
 import pandas as pd
 
-from hmid.errors import LogError
+from hmid.errors import LogError, one_line
 from hmid.io.columns import ColumnMap
 from hmid.io.validate import RowLocator
 
@@ -29,12 +29,6 @@ _NAMES = {"\t": "tab", ",": "comma", ";": "semicolon", "|": "pipe", WHITESPACE: 
 # Excel writes 'sep=;' as the first line of a CSV to say which delimiter it used
 _EXCEL_SEP = re.compile(rb"^(?:\xef\xbb\xbf)?sep=([\t!-~])[ \t]*(?:\r\n|\r|\n)")
 _EXPECTED_FIELDS = re.compile(r"Expected (\d+) fields in line (\d+), saw (\d+)")
-
-
-def one_line(err: BaseException, limit: int = 200) -> str:
-    """An exception's text on one line, at most ``limit`` characters."""
-    text = " ".join(str(err).split()) or type(err).__name__
-    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def parse_csv(data: bytes, columns: ColumnMap, source: str) -> tuple[pd.DataFrame, ColumnMap, str]:

@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from hmid.errors import HmidWarning, LogError
-from hmid.io._csv import WHITESPACE, line_locator, one_line, parse_csv
+from hmid.errors import HmidWarning, LogError, one_line
+from hmid.io._csv import WHITESPACE, line_locator, parse_csv
 from hmid.io.columns import ColumnMap
 from hmid.io.log import Log
 from hmid.io.units import to_si

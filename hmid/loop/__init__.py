@@ -6,13 +6,13 @@ from hmid.loop.candidates import CANDIDATES, Candidate, Setting, library
 from hmid.loop.config import LoopSpec
 from hmid.loop.decision import Decision
 from hmid.loop.engine import LoopBase, run_loop
-from hmid.loop.result import Effect, LoopResult, Verdict
+from hmid.loop.result import AddedEffect, LoopResult, Verdict
 
 __all__ = [
     "CANDIDATES",
+    "AddedEffect",
     "Candidate",
     "Decision",
-    "Effect",
     "LoopBase",
     "LoopResult",
     "LoopSpec",

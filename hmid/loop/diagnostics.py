@@ -32,7 +32,7 @@ FOLDS = 4
 FOLD_BLOCK_S = 0.5  # folds interleave blocks of this length
 HUGE = 1e100  # a residual this large is scaled before it is squared
 SPECTRUM_ROWS = 1024  # consecutive finite rows a Welch segment of the spectrum needs
-MIN_ROWS = 50  # finite training rows of a residual below which it is not diagnosed
+MIN_DIAGNOSED_ROWS = 50  # finite training rows of a residual below which it is not diagnosed
 
 
 def inputs(data: Signals) -> dict[str, np.ndarray]:
@@ -189,7 +189,7 @@ def diagnose(
     dt = float(np.median(np.diff(data["t"][:1000])))
     finite = residual[rows]
     scale = float(np.max(np.abs(finite))) if len(finite) else 0.0
-    if rows.sum() < MIN_ROWS or not np.isfinite(scale) or scale == 0.0:
+    if rows.sum() < MIN_DIAGNOSED_ROWS or not np.isfinite(scale) or scale == 0.0:
         return _undiagnosed(residual, rows, data, dt, lag_count(data, max_lag_s))
     if scale < HUGE:  # as it is: the same numbers as ever
         scale = 1.0

@@ -24,7 +24,7 @@ from hmid.loop.confounds import rivals, separating
 from hmid.loop.decision import Decision
 from hmid.loop.diagnostics import pattern_scan
 from hmid.loop.parallel import screen_round
-from hmid.loop.result import Alternative, LoopResult, finish, make_effect, own_parameters
+from hmid.loop.result import Alternative, LoopResult, added_effect, finish, own_parameters
 from hmid.loop.screen import PROFILE_STEP, Screen
 from hmid.loop.selection import Folds, bootstrap, change, out_of_fold
 from hmid.stats import NestedTest, holm, residual_tau_int
@@ -128,7 +128,7 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
             break
         added = screened[chosen.best]
         trial = profile(added.joint.structure, signals)  # every parameter afresh, jointly
-        effects.append(make_effect(added, trial, current, signals, chosen.decisions[chosen.best],
+        effects.append(added_effect(added, trial, current, signals, chosen.decisions[chosen.best],
                                    folds, spec.confidence, chosen.alternatives))  # fmt: skip
         remaining.remove(added.candidate)
         current = trial

@@ -27,7 +27,7 @@ class Hint:
     periodic: str = ""  # a dominant period of the residual along its strongest signal
 
 
-def library(data: Signals) -> pd.DataFrame:
+def features(data: Signals) -> pd.DataFrame:
     """Generic features on standardised signals: monomials to degree 2, each also times
     sign(v), and t; nothing tied to a candidate effect."""
     raw = signals(data)
@@ -52,7 +52,7 @@ def sparse_hint(residual: np.ndarray, data: Signals, signal: str | None = None) 
     ``signal``, also its periodicity check."""
     from sklearn.linear_model import OrthogonalMatchingPursuit
 
-    X = library(data)
+    X = features(data)
     values = X.to_numpy()
     train, held = data.train, data.validation
     r_held = residual[held]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from hmid.loop.diagnostics import MIN_ROWS, SPECTRUM_ROWS, binned_mean, signals, unit
+from hmid.loop.diagnostics import MIN_DIAGNOSED_ROWS, SPECTRUM_ROWS, binned_mean, signals, unit
 from hmid.loop.result import LoopResult
 
 
@@ -70,7 +70,10 @@ def plot_pattern(result: LoopResult, path: Path) -> None:
     ):
         name, eta2 = d.strongest
         if name not in values:  # too few finite rows: said in the panel's place
-            _empty(ax, f"{label}: no pattern scan (fewer than {MIN_ROWS} finite residual rows)")
+            _empty(
+                ax,
+                f"{label}: no pattern scan (fewer than {MIN_DIAGNOSED_ROWS} finite residual rows)",
+            )
             continue
         table = binned_mean(residual, rows, values[name], data)
         for direction, part in table.groupby("direction"):

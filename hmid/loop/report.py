@@ -10,7 +10,7 @@ import pandas as pd
 
 from hmid.balance.inference import CALIBRATED_TAU
 from hmid.loop.plots import plot_pattern, plot_whiteness
-from hmid.loop.result import Effect, LoopResult
+from hmid.loop.result import AddedEffect, LoopResult
 from hmid.report import Figure, Section, Table
 from hmid.workers import draw
 
@@ -190,7 +190,7 @@ def _keys(frame, wanted: tuple[str, ...]) -> tuple[str, ...]:
     return tuple(c for c in frame.columns if isinstance(c, str) and c.startswith(wanted))
 
 
-def _effect_section(e: Effect, prefix: str, write_csv) -> Section:
+def _effect_section(e: AddedEffect, prefix: str, write_csv) -> Section:
     """An added effect: its physics, evidence and parameters, and its indistinguishable
     rivals."""
     write_csv(e.parameters, f"{prefix}_effect_{e.name}.csv")

@@ -37,7 +37,7 @@ class Alternative:
 
 
 @dataclass(frozen=True)
-class Effect:
+class AddedEffect:
     """An added effect: its parameters with intervals, the evidence that pointed to it, and the
     rivals the data cannot tell from it."""
 
@@ -66,7 +66,7 @@ class LoopResult:
     unit: str  # of the explained quantity
     base_parameters: pd.DataFrame  # its terms refitted by least squares, with intervals
     decisions: tuple[Decision, ...]  # every candidate of every round
-    effects: tuple[Effect, ...]
+    effects: tuple[AddedEffect, ...]
     before: Scores  # the base model's own prediction, on the loop's held-out rows
     after: Scores
     diagnostics_before: Diagnostics
@@ -189,9 +189,9 @@ def own_parameters(
     return own.reset_index(drop=True)
 
 
-def make_effect(screened, trial: StructureFit, current: StructureFit, signals: Signals,
+def added_effect(screened, trial: StructureFit, current: StructureFit, signals: Signals,
                 decision: Decision, folds, confidence: float,
-                alternatives=()) -> Effect:  # fmt: skip
+                alternatives=()) -> AddedEffect:  # fmt: skip
     """The added effect (``screened``: its screen; ``decision``: the evidence for it) with
     parameters from ``trial``, the joint fit every parameter was profiled afresh in."""
     candidate = screened.candidate
@@ -211,7 +211,7 @@ def make_effect(screened, trial: StructureFit, current: StructureFit, signals: S
             else ""
         )
     )
-    return Effect(candidate.name, candidate.title, candidate.physics, table, text,
+    return AddedEffect(candidate.name, candidate.title, candidate.physics, table, text,
                   tuple(alternatives))  # fmt: skip
 
 

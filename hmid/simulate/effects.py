@@ -150,7 +150,7 @@ class PressureSensorLag(Effect):
         return out
 
 
-class StiffnessDrift(Effect):
+class LatexSoftening(Effect):
     """The latex softens over the test (warm-up): stiffness x (1 - fraction (1 - exp(-t/tau)))."""
 
     kind: ClassVar[str] = "stiffness_drift"

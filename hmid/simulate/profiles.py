@@ -13,8 +13,9 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 from scipy.signal import chirp as _chirp
 
+from hmid.config import Positive
+
 Pressure = Annotated[float, Field(ge=0, le=5e6)]
-Positive = Annotated[float, Field(gt=0)]
 
 
 class _Profile(BaseModel):

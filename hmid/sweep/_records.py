@@ -24,7 +24,7 @@ from typing import Any, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, ValidationError
 
-from hmid.errors import HmidError
+from hmid.errors import HmidError, one_line
 from hmid.files import write_json, write_text
 
 #: ``work(config_path, results, force) -> (run folder, summary)``: one run of the study. The
@@ -82,12 +82,6 @@ def read_done(folder: Path, run_id: str) -> RunRecord | None:
         return None
 
 
-def one_line(err: BaseException) -> str:
-    """An error as one line: hmid's own messages as they are, others with their type."""
-    text = str(err) if isinstance(err, HmidError) else f"{type(err).__name__}: {err}"
-    return " ".join(text.split())[:500]
-
-
 def run_task(work: Work, task: RunTask) -> RunRecord:
     """Run one task in this process and record its outcome in the sweep's done folder."""
     start = time.perf_counter()
@@ -102,7 +96,7 @@ def run_task(work: Work, task: RunTask) -> RunRecord:
             outcome["run_dir"] = _relative(Path(run_dir), Path(task.folder))
             outcome["summary"] = dict(summary)
         except Exception as err:  # one bad run must not stop the sweep: report it
-            outcome = {"status": "failed", "error": one_line(err)}
+            outcome = {"status": "failed", "error": one_line(err, 500, name_foreign=True)}
             if not isinstance(err, HmidError):
                 outcome["traceback"] = traceback.format_exc()
     record = RunRecord(
@@ -127,10 +121,11 @@ def _relative(path: Path, folder: Path) -> str:
 
 def lost_record(task: RunTask, err: BaseException) -> RunRecord:
     """A run whose worker died or was lost: failed, but not recorded as done (rerun next time)."""
+    reason = one_line(err, 500, name_foreign=True)
     return RunRecord(
         run_id=task.run_id,
         status="failed",
-        error=f"the worker was lost, the run will be repeated: {one_line(err)}",
+        error=f"the worker was lost, the run will be repeated: {reason}",
         overrides=task.overrides,
         wall_s=float("nan"),
     )

@@ -5,14 +5,14 @@ from types import SimpleNamespace
 import pandas as pd
 
 from hmid.blind import CLEAN, Case, dataset_for, outcome
-from hmid.loop.result import Alternative, Effect, Verdict
+from hmid.loop.result import AddedEffect, Alternative, Verdict
 
 
 def _effect(names):
     """An added effect, with rivals when ``names`` is a tuple (the first is added)."""
     names = (names,) if isinstance(names, str) else names
     rivals = tuple(Alternative(n, n, "", pd.DataFrame(), 0.0, "") for n in names[1:])
-    return Effect(names[0], names[0], "", pd.DataFrame(), "", rivals)
+    return AddedEffect(names[0], names[0], "", pd.DataFrame(), "", rivals)
 
 
 def _result(effects, verdict=Verdict.EXPLAINED):

@@ -23,12 +23,12 @@ from typing import ClassVar
 import numpy as np
 
 from hmid.balance import Column, Columns, Hyper, RigSection, Signals, Term, raw
+from hmid.balance.rig import DERIVED
 from hmid.balance.terms import unit_of
 from hmid.errors import ConfigError
 
 CANDIDATES: dict[str, type[Candidate]] = {}
 #: Channels a rig derives (never a modulation or a timing channel of their own).
-DERIVED = ("v", "a")
 
 
 @dataclass(frozen=True)

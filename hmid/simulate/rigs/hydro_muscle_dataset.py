@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 from pydantic import Field, field_validator, model_validator
 
+from hmid.config import Positive
 from hmid.io.log import Log
 from hmid.simulate.dataset import (
     Name,
@@ -34,8 +35,6 @@ from hmid.simulate.relaxation import RelaxationRun, write_relaxation
 from hmid.simulate.rig import Trajectory, integrate
 from hmid.simulate.rigs.hydro_muscle import HydroMuscle
 from hmid.simulate.sensors import measure, to_values
-
-Positive = Annotated[float, Field(gt=0)]
 
 
 class _LogSpec(_Frozen):

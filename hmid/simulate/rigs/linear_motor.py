@@ -39,11 +39,9 @@ import jax.numpy as jnp
 import numpy as np
 from pydantic import Field
 
+from hmid.config import NonNegative, Positive
 from hmid.simulate.params import _Frozen
 from hmid.simulate.rig import SimulatedRig, Trajectory
-
-Positive = Annotated[float, Field(gt=0)]
-NonNegative = Annotated[float, Field(ge=0)]
 
 
 class LinearMotorParams(_Frozen):

@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 from pydantic import Field, field_validator, model_validator
 
+from hmid.config import NonNegative
 from hmid.io.log import Log
 from hmid.simulate.dataset import (
     Name,
@@ -38,8 +39,6 @@ from hmid.simulate.rigs.linear_motor import (
     PDController,
     balance_residual,
 )
-
-NonNegative = Annotated[float, Field(ge=0)]
 
 
 class LinearMotorSensors(_Frozen):
