@@ -41,7 +41,8 @@ def test_a_start_that_does_not_converge_fails_its_family_alone(workspace):
     assert (run_dir / "report.md").is_file()
     report = (run_dir / "report.md").read_text()
     assert [f["name"] for f in metrics["failed"]] == ["sls"]
-    assert "did not converge after 1 steps" in metrics["failed"][0]["reason"]
+    reason = metrics["failed"][0]["reason"]
+    assert "did not converge after 1 steps" in reason and "start_max_steps (now 1)" in reason
     assert [m["model"] for m in metrics["held_out"]] == ["poly:cubic_xvP"]
     # the loop starts from the converged model, and says so in one line, console and report
     assert metrics["loop"]["base"] == "poly:cubic_xvP"

@@ -216,7 +216,8 @@ def initial_fit(
         raise StartError(
             f"initial_fit: Levenberg-Marquardt did not converge after {int(steps)} steps: "
             f"{message} Best grid point: tau = ({best_text}) s with residual std "
-            f"{scale:.4g} N; try more max_steps, looser rtol/atol or check the data"
+            f"{scale:.4g} N; raise the sls family's start_max_steps (now {max_steps}) in the "
+            "config's models section, or check the data"
         )
     theta = theta0.copy()
     theta[:n_force] = np.asarray(value)
