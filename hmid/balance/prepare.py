@@ -88,19 +88,15 @@ def _usable(t, v_raw, smoother, ends: int, v_deadband: float, exclude_stuck: boo
     return usable
 
 
-def prepare(
+def _parts(
     rig: RigSection,
     pieces: Mapping[str, list[Log]],
-    units: Mapping[str, str],
-    *,
     smoother: Smoother,
     differentiator: Differentiator,
-    free_fall_law: Callable[[np.ndarray], np.ndarray] | None = None,
-    v_deadband: float = 0.002,
-    exclude_stuck: bool = True,
-) -> Signals:
-    """Signals of every dynamic log's pieces (see the module docstring); ``free_fall_law(v)`` is
-    the friction the free-fall tests identified (N, signed with v), for the terms that take it."""
+    v_deadband: float,
+    exclude_stuck: bool,
+) -> list[dict]:
+    """The columns of every piece, times from its log's start, with the rows it can fit."""
     parts: list[dict] = []
     for name, logs in pieces.items():
         t0 = logs[0].t[0]
@@ -117,22 +113,31 @@ def prepare(
                 v_deadband, exclude_stuck,
             )  # fmt: skip
             parts.append(columns)
-    if not parts:
-        raise ConfigError("logs: no log has role 'dynamic'; there is nothing to identify")
-    frame = _joined(parts)
-    signals = Signals(frame, units, rig.model_channels, rig.position, smoother)
-    # on the smoothed signals, as a channel term is: a single channel (a force sensor, an
-    # acceleration) is then exactly its smoothed self
+    return parts
+
+
+def _explained(rig: RigSection, signals: Signals, units: Mapping[str, str]) -> np.ndarray:
+    """The explained quantity, on the smoothed signals as a channel term is: a single channel
+    (a force sensor, an acceleration) is then exactly its smoothed self."""
     explained = np.zeros(len(signals))
     for value, part in zip(rig.part_values(units), rig.explained.parts, strict=True):
         powers = part.powers()
         if len(rig.explained.parts) == 1 and value == 1 and list(powers.values()) == [1]:
-            explained = signals[next(iter(powers))]  # a force sensor: that column, not a copy
-            break
+            return signals[next(iter(powers))]  # a force sensor: that column, not a copy
         values = np.full(len(signals), value)
         for channel, power in powers.items():
             values = values * signals[channel] ** power
         explained += values
+    return explained
+
+
+def _known(
+    rig: RigSection,
+    signals: Signals,
+    units: Mapping[str, str],
+    free_fall_law: Callable[[np.ndarray], np.ndarray] | None,
+) -> np.ndarray:
+    """The sum of the rig's known terms, the free-fall friction smoothed as the signals are."""
     known = np.zeros(len(signals))
     for term in rig.known:
         if isinstance(term, CoulombTerm) and term.source == "free_fall":
@@ -150,5 +155,28 @@ def prepare(
         else:
             value = rig.term_value(term, units)
             known += value * term.columns(signals, None).values[:, 0]
+    return known
+
+
+def prepare(
+    rig: RigSection,
+    pieces: Mapping[str, list[Log]],
+    units: Mapping[str, str],
+    *,
+    smoother: Smoother,
+    differentiator: Differentiator,
+    free_fall_law: Callable[[np.ndarray], np.ndarray] | None = None,
+    v_deadband: float = 0.002,
+    exclude_stuck: bool = True,
+) -> Signals:
+    """Signals of every dynamic log's pieces (see the module docstring); ``free_fall_law(v)`` is
+    the friction the free-fall tests identified (N, signed with v), for the terms that take it."""
+    parts = _parts(rig, pieces, smoother, differentiator, v_deadband, exclude_stuck)
+    if not parts:
+        raise ConfigError("logs: no log has role 'dynamic'; there is nothing to identify")
+    frame = _joined(parts)
+    signals = Signals(frame, units, rig.model_channels, rig.position, smoother)
+    explained = _explained(rig, signals, units)
+    known = _known(rig, signals, units, free_fall_law)
     target = np.subtract(explained, known, out=known)  # a long log's known part is let go
     return signals.with_columns(explained=explained, target=target)

@@ -191,32 +191,13 @@ class SLSSpec(FamilySpec):
         )
 
     def fit(self, train: FitData, context: FitContext) -> list[Fitted]:
-        from hmid.models.base import fit_statistics
-        from hmid.models.sls import SLSModel, initial_fit, sls_data
-        from hmid.models.sls.diagnostics import lag1_autocorrelation, residuals_correlated
+        from hmid.models.sls import sls_data
 
         # the sign check does not need the posterior: a worker's, if the runner has one free
         checked = context.beside(_sign_check, self, train)
         data = sls_data(self._segments(train, "train"))
-        use = np.asarray(data.use)
-        model = SLSModel(self.spring, self.arms, "iid")
-        start = initial_fit(data, model, max_steps=self.start_max_steps)
-        residual = model.residuals(start.theta, data)[use]
-        rho, p_value = lag1_autocorrelation(residual)
-        correlated = residuals_correlated(residual, alpha=0.01, min_abs_rho=0.1)
-        noise = "ar1" if self.noise == "ar1" or (self.noise == "auto" and correlated) else "iid"
-        if noise == "ar1":
-            model = SLSModel(self.spring, self.arms, "ar1")
-            start = initial_fit(data, model, max_steps=self.start_max_steps)
-        grid = adjustment = None
-        if self.method == "exact":
-            result, grid = self._exact(model, data, start, context.seed)
-            if noise == "iid" and self.errors == "autocov":
-                from hmid.models.sls._sandwich import sandwich_adjust
-
-                result, adjustment = sandwich_adjust(result, data, model.space.force)
-        else:
-            result = self._mcmc(model, data, start, noise, context)
+        model, start, noise, (rho, p_value, correlated) = self._start(data)
+        result, grid, adjustment = self._posterior(model, data, start, noise, context)
         findings = checked()
         fitted = SLSFitted(
             self,
@@ -232,6 +213,45 @@ class SLSSpec(FamilySpec):
             grid,
             adjustment,
         )
+        return [self._entry(fitted, data, noise, findings)]
+
+    def _start(self, data):
+        """The posterior's model and starting point: i.i.d. noise, or AR(1) when asked for or
+        when ``noise: auto`` and the i.i.d. start's residuals are correlated at lag 1; with the
+        lag-1 test's (rho, p-value, correlated)."""
+        from hmid.models.sls import SLSModel, initial_fit
+        from hmid.models.sls.diagnostics import lag1_autocorrelation, residuals_correlated
+
+        use = np.asarray(data.use)
+        model = SLSModel(self.spring, self.arms, "iid")
+        start = initial_fit(data, model, max_steps=self.start_max_steps)
+        residual = model.residuals(start.theta, data)[use]
+        rho, p_value = lag1_autocorrelation(residual)
+        correlated = residuals_correlated(residual, alpha=0.01, min_abs_rho=0.1)
+        noise = "ar1" if self.noise == "ar1" or (self.noise == "auto" and correlated) else "iid"
+        if noise == "ar1":
+            model = SLSModel(self.spring, self.arms, "ar1")
+            start = initial_fit(data, model, max_steps=self.start_max_steps)
+        return model, start, noise, (rho, p_value, correlated)
+
+    def _posterior(self, model, data, start, noise: str, context: FitContext):
+        """(draws, the exact posterior's tau grid, the sandwich adjustment of its intervals)."""
+        grid = adjustment = None
+        if self.method == "exact":
+            result, grid = self._exact(model, data, start, context.seed)
+            if noise == "iid" and self.errors == "autocov":
+                from hmid.models.sls._sandwich import sandwich_adjust
+
+                result, adjustment = sandwich_adjust(result, data, model.space.force)
+        else:
+            result = self._mcmc(model, data, start, noise, context)
+        return result, grid, adjustment
+
+    def _entry(self, fitted: SLSFitted, data, noise: str, findings) -> Fitted:
+        """The fitted model's entry: training statistics at the posterior median, its table."""
+        from hmid.models.base import fit_statistics
+
+        use = np.asarray(data.use)
         model = fitted.model  # the coordinates the draws are in
         prediction = model.predict(fitted.theta_median, data)[use]
         n_mean = model.space.dim - (2 if noise == "ar1" else 1)  # sigma (and phi) are noise
@@ -243,21 +263,19 @@ class SLSSpec(FamilySpec):
             record=("family", "name", "n_obs", "n_params", "condition_number", "warnings",
                     *STATISTICS),
         )  # fmt: skip
-        return [
-            Fitted(
-                name=self.name if self.name == "sls" else f"sls:{self.name}",
-                family="sls",
-                model=fitted,
-                kind=KIND,
-                fit_summary=summary,
-                coefficients=table.reset_index(),
-                equation=fitted.equation(table),
-                notes=fitted.notes(),
-                findings=findings,
-                reused=fitted.reused(),
-                interval=fitted.interval_note(),
-            )
-        ]
+        return Fitted(
+            name=self.name if self.name == "sls" else f"sls:{self.name}",
+            family="sls",
+            model=fitted,
+            kind=KIND,
+            fit_summary=summary,
+            coefficients=table.reset_index(),
+            equation=fitted.equation(table),
+            notes=fitted.notes(),
+            findings=findings,
+            reused=fitted.reused(),
+            interval=fitted.interval_note(),
+        )
 
 
 def _sign_check(spec: SLSSpec, data: FitData):

@@ -80,9 +80,9 @@ def _load_cell_check(F, v, direction, model, confidence, sign) -> LoadCellCheck:
     )  # fmt: skip
 
 
-def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign, force,
-             noise=None):  # fmt: skip
-    # position: the position channel; sign: how friction enters the force channel ``force``
+def _position_and_velocity(log, position: str, differentiator: Differentiator):
+    """``(t, x, v, reach)``: the log's position channel, its velocity estimate and that
+    estimate's reach in samples (:func:`derivative_reach`)."""
     if position not in log:
         raise LogError(f"{log.source}: a free-fall log needs the position channel {position!r}")
     t, x = log.t, log[position]
@@ -99,6 +99,12 @@ def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign,
         raise LogError(
             f"{log.source}: friction: differentiating {position} failed: {err}"
         ) from None
+    return t, x, v, reach
+
+
+def _sliding_rows(log, t: np.ndarray, v: np.ndarray, v_min: float, reach: int) -> slice:
+    """The fall's sliding segment (:func:`sliding_segment`), or an error that says why the log
+    has none long enough."""
     i0, i1 = sliding_segment(v, v_min, reach)
     n = i1 - i0
     not_a_fall = _not_a_fall(t, v, v_min) if n < MIN_SLIDING_SAMPLES else ""
@@ -115,10 +121,11 @@ def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign,
             "longer fall (start higher on the rail), lower friction.v_min or shorten the "
             "derivative window"
         )
-    seg = slice(i0, i1)
-    direction = 1 if np.mean(v[seg]) > 0 else -1
-    t_ref = float(np.mean(t[seg]))
-    tau, u = t[seg] - t_ref, direction * x[seg]
+    return slice(i0, i1)
+
+
+def _fit_fall(log, model, tau, u, rig, noise):
+    """``model``'s fit of the fall ``u(tau)`` and its parameters' standard errors (finite)."""
     try:
         fit = model.fit_fall(tau, u, rig, noise)
     except (RuntimeError, ValueError) as err:
@@ -129,6 +136,21 @@ def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign,
             f"{log.source}: the {model.name} parameters are not identifiable from this fall "
             "(infinite variance); record a longer fall or use a simpler friction model"
         )
+    return fit, se
+
+
+def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign, force,
+             noise=None):  # fmt: skip
+    """One fall: ``(its LogFriction, the parameters' covariance, (tau, u, fitted), dof,
+    the noise model's design)``."""
+    # position: the position channel; sign: how friction enters the force channel ``force``
+    t, x, v, reach = _position_and_velocity(log, position, differentiator)
+    seg = _sliding_rows(log, t, v, v_min, reach)
+    n = seg.stop - seg.start
+    direction = 1 if np.mean(v[seg]) > 0 else -1
+    t_ref = float(np.mean(t[seg]))
+    tau, u = t[seg] - t_ref, direction * x[seg]
+    fit, se = _fit_fall(log, model, tau, u, rig, noise)
     names = model.param_names
     quantile = stats.t.ppf(0.5 + confidence / 2, fit.dof)
     resid = u - fit.fitted
@@ -147,8 +169,8 @@ def _fit_log(log, rig, model, differentiator, v_min, confidence, position, sign,
         tau_int=float(fit.tau_int),
         n_samples=n,
         fraction_used=n / len(log),
-        t_start=float(t[i0]),
-        t_end=float(t[i1 - 1]),
+        t_start=float(t[seg.start]),
+        t_end=float(t[seg.stop - 1]),
         direction=direction,
         t_ref=t_ref,
         x_ref=direction * fit.u0,
@@ -198,6 +220,40 @@ def _not_a_fall(t: np.ndarray, v: np.ndarray, v_min: float) -> str:
     return ""
 
 
+def _check_arguments(logs, rig, model, differentiator, v_min, confidence) -> None:
+    """An error naming the first argument :func:`identify_friction` cannot use."""
+    if not isinstance(model, FrictionModel):
+        raise ConfigError(f"friction model must be a FrictionModel, got {model!r}")
+    if not isinstance(differentiator, Differentiator):
+        raise ConfigError(f"differentiator must be a Differentiator, got {differentiator!r}")
+    if not isinstance(rig, FallRig):
+        raise ConfigError(f"friction needs the free fall's mass and drive (a FallRig), got {rig!r}")
+    if not (np.isfinite(v_min) and v_min > 0):
+        raise ConfigError(f"friction.v_min={v_min!r} must be a positive speed in m/s")
+    if not 0 < confidence < 1:
+        raise ConfigError(f"friction.confidence={confidence!r} must lie in (0, 1)")
+    if len(logs) == 0:
+        raise LogError("friction: no free-fall logs given; add logs with role 'free_fall'")
+
+
+def _fit_logs(logs, rig, model, differentiator, settings):
+    """Every fall's :func:`_fit_log` and the position noise's model (None: none fitted)."""
+    fits = [_fit_log(log, rig, model, differentiator, *settings) for log in logs]
+    # one sensor, one noise process: its AR(1) + white model is fitted on every fall at once
+    # (a 0.3 s fall holds too few correlation times to tell phi 0.97 from 0.9 alone)
+    noise = fit_ar_white([(design, u - fitted) for _, _, (_, u, fitted), _, design in fits])
+    if noise is not None and len(fits) > 1:
+        fits = [_fit_log(log, rig, model, differentiator, *settings, noise) for log in logs]
+    return fits, noise
+
+
+def _heterogeneity(q: float, dof: int) -> tuple[float, float]:
+    """Cochran's Q's p-value and I² (the share of the logs' scatter beyond their noise)."""
+    q_p = float(stats.chi2.sf(q, dof)) if dof > 0 else float("nan")
+    i2 = max(0.0, (q - dof) / q) if dof > 0 and q > 0 else (0.0 if dof > 0 else float("nan"))
+    return q_p, i2
+
+
 def identify_friction(
     logs: Sequence[Log],
     rig: FallRig,
@@ -224,25 +280,9 @@ def identify_friction(
     channel, where the log has it, gives an independent cross-check: in a free fall it reads the
     friction alone, entering with ``friction_sign``.
     """
-    if not isinstance(model, FrictionModel):
-        raise ConfigError(f"friction model must be a FrictionModel, got {model!r}")
-    if not isinstance(differentiator, Differentiator):
-        raise ConfigError(f"differentiator must be a Differentiator, got {differentiator!r}")
-    if not isinstance(rig, FallRig):
-        raise ConfigError(f"friction needs the free fall's mass and drive (a FallRig), got {rig!r}")
-    if not (np.isfinite(v_min) and v_min > 0):
-        raise ConfigError(f"friction.v_min={v_min!r} must be a positive speed in m/s")
-    if not 0 < confidence < 1:
-        raise ConfigError(f"friction.confidence={confidence!r} must lie in (0, 1)")
-    if len(logs) == 0:
-        raise LogError("friction: no free-fall logs given; add logs with role 'free_fall'")
+    _check_arguments(logs, rig, model, differentiator, v_min, confidence)
     settings = (v_min, confidence, position, friction_sign, explained)
-    fits = [_fit_log(log, rig, model, differentiator, *settings) for log in logs]
-    # one sensor, one noise process: its AR(1) + white model is fitted on every fall at once
-    # (a 0.3 s fall holds too few correlation times to tell phi 0.97 from 0.9 alone)
-    noise = fit_ar_white([(design, u - fitted) for _, _, (_, u, fitted), _, design in fits])
-    if noise is not None and len(fits) > 1:
-        fits = [_fit_log(log, rig, model, differentiator, *settings, noise) for log in logs]
+    fits, noise = _fit_logs(logs, rig, model, differentiator, settings)
     names = model.param_names
     thetas = [np.array([r.params[p] for p in names]) for r, *_ in fits]
     mean, cov, q, dof = _pool(thetas, [c for _, c, *_ in fits])
@@ -251,8 +291,7 @@ def identify_friction(
     if noise is not None and len(fits) > 1:  # the falls share their noise model's one scale
         pooled_dof = np.minimum(pooled_dof, noise.dof)
     z = stats.t.ppf(0.5 + confidence / 2, pooled_dof)
-    q_p = float(stats.chi2.sf(q, dof)) if dof > 0 else float("nan")
-    i2 = max(0.0, (q - dof) / q) if dof > 0 and q > 0 else (0.0 if dof > 0 else float("nan"))
+    q_p, i2 = _heterogeneity(q, dof)
     return FrictionEstimate(
         model=model,
         params={p: float(mean[j]) for j, p in enumerate(names)},

@@ -121,10 +121,10 @@ def loop_section(
     light = replace(result, data=None, residual_before=np.empty(0), residual_after=np.empty(0))
     draw(drawing, plot_whiteness, light, figures / f"{prefix}_whiteness.png")
     plot_pattern(result, figures / f"{prefix}_structure.png")
-    table, diag, tests = before_after(result), diagnostics_table(result), result.tests
+    table, diag = before_after(result), diagnostics_table(result)
     write_csv(table, f"{prefix}_before_after.csv")
     write_csv(diag, f"{prefix}_diagnostics.csv")
-    write_csv(tests, f"{prefix}_tests.csv")
+    write_csv(result.tests, f"{prefix}_tests.csv")
     write_csv(result.final_parameters, f"{prefix}_final_model.csv")
     effect_sections = tuple(_effect_section(e, prefix, write_csv) for e in result.effects)
     hint_tables, hint_text = _hint(result, prefix, write_csv)
@@ -134,48 +134,59 @@ def loop_section(
         + f"**Verdict: {result.verdict.value}.** {result.message}{hint_text}\n\n"
         + _final_text(result)
         + _method_text(result),
-        tables=(
-            Table(table, "Held-out error before and after (one-step)"),
-            Table(
-                result.final_parameters,
-                f"The final model, {result.after_name}: every parameter after the loop (part: "
-                "the base's or an added effect's), from its last joint fit, with intervals",
-            ),
-            Table(
-                result.base_parameters,
-                f"{result.base_name}: its terms refitted by least squares, with intervals",
-                summary=f"{len(result.base_parameters)} parameters",
-                collapsed=True,
-            ),
-            Table(
-                tests,
-                "Every candidate tested, per round",
-                key_columns=_keys(tests, TEST_KEYS),
-                summary=f"{len(tests)} tests of candidate effects",
-                collapsed=True,
-            ),
-            Table(
-                diag,
-                "Residual diagnostics on training rows",
-                key_columns=_keys(diag, DIAGNOSTIC_KEYS),
-            ),
-            *hint_tables,
-        ),
-        figures=(  # nothing added: the figures show what the tests found, on request
-            Figure(
-                figures / f"{prefix}_structure.png",
-                "Where the residual's structure is",
-                collapsed=not result.effects,
-            ),
-            Figure(
-                figures / f"{prefix}_whiteness.png",
-                "Whiteness and independence, before and after",
-                collapsed=not result.effects,
-            ),
-        ),
+        tables=(*_tables(result, table, diag), *hint_tables),
+        figures=_figures(result, figures, prefix),
         subsections=effect_sections,
     )
     return section, metrics(result)
+
+
+def _tables(result: LoopResult, table: pd.DataFrame, diag: pd.DataFrame) -> tuple[Table, ...]:
+    """The section's tables: before and after, the final and the base model, every test, and
+    the residual diagnostics."""
+    tests = result.tests
+    return (
+        Table(table, "Held-out error before and after (one-step)"),
+        Table(
+            result.final_parameters,
+            f"The final model, {result.after_name}: every parameter after the loop (part: "
+            "the base's or an added effect's), from its last joint fit, with intervals",
+        ),
+        Table(
+            result.base_parameters,
+            f"{result.base_name}: its terms refitted by least squares, with intervals",
+            summary=f"{len(result.base_parameters)} parameters",
+            collapsed=True,
+        ),
+        Table(
+            tests,
+            "Every candidate tested, per round",
+            key_columns=_keys(tests, TEST_KEYS),
+            summary=f"{len(tests)} tests of candidate effects",
+            collapsed=True,
+        ),
+        Table(
+            diag,
+            "Residual diagnostics on training rows",
+            key_columns=_keys(diag, DIAGNOSTIC_KEYS),
+        ),
+    )
+
+
+def _figures(result: LoopResult, figures: Path, prefix: str) -> tuple[Figure, ...]:
+    # nothing added: the figures show what the tests found, on request
+    return (
+        Figure(
+            figures / f"{prefix}_structure.png",
+            "Where the residual's structure is",
+            collapsed=not result.effects,
+        ),
+        Figure(
+            figures / f"{prefix}_whiteness.png",
+            "Whiteness and independence, before and after",
+            collapsed=not result.effects,
+        ),
+    )
 
 
 #: The columns of the tests and the diagnostics a reader reads first (the page shows the rest

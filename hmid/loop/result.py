@@ -237,28 +237,19 @@ def finish(spec, signals, base, start, current, effects, decisions, held, steps=
         finding = level_finding(table, known_level, signals.unit("target"),
                                 (before_scores, start.scores(held)), known_se,
                                 spec.confidence)  # fmt: skip
-    before = diagnose(residual_before, signals, max_lag_s=spec.max_lag_s, stride_s=spec.stride_s)
+    before = _diagnose(spec, signals, residual_before)
     after, current_residual = before, residual_before  # nothing added: after is before
     corrected = bool(effects) or finding is not None  # a known level found wrong: corrected
     if corrected:
         current_residual = current.residual
-        after = diagnose(
-            current_residual, signals, max_lag_s=spec.max_lag_s, stride_s=spec.stride_s
-        )
+        after = _diagnose(spec, signals, current_residual)
     verdict = _verdict(spec, after, effects)
-    hint = None
-    if verdict is Verdict.PATTERN_REMAINS and spec.hint:
-        hint = sparse_hint(current_residual, signals, after.strongest[0])
-        if hint.heldout_r2 <= 0 and not hint.periodic:
-            hint = None  # a hint that explains no held-out variance is no hint
+    hint = _hint(spec, verdict, current_residual, signals, after)
     after_scores = current.scores(held) if corrected else before_scores
     final = final_parameters(current, len(start.structure.terms), base.name, effects, signals,
                              spec.confidence)  # fmt: skip
     if fitted_level is not None:  # the refit replaced the fitted level: its name, not a change
-        rename = {"dFc": fitted_level}
-        table["parameter"] = table["parameter"].replace(rename)
-        ours = final["part"] == base.name
-        final.loc[ours, "parameter"] = final.loc[ours, "parameter"].replace(rename)
+        _rename_level(table, final, fitted_level, base.name)
     return LoopResult(
         base_name=base.name,
         after_name=base.name
@@ -285,6 +276,30 @@ def finish(spec, signals, base, start, current, effects, decisions, held, steps=
             *rises(before_scores, steps, signals.unit("target"), held_out),
         ),
     )
+
+
+def _diagnose(spec, signals, residual: np.ndarray) -> Diagnostics:
+    """The residual's diagnostics on the spec's lags."""
+    return diagnose(residual, signals, max_lag_s=spec.max_lag_s, stride_s=spec.stride_s)
+
+
+def _hint(spec, verdict: Verdict, residual: np.ndarray, signals, after):
+    """The sparse hint at the structure that remains, where a pattern remains and the spec asks
+    for one (None otherwise)."""
+    if verdict is not Verdict.PATTERN_REMAINS or not spec.hint:
+        return None
+    hint = sparse_hint(residual, signals, after.strongest[0])
+    if hint.heldout_r2 <= 0 and not hint.periodic:
+        return None  # a hint that explains no held-out variance is no hint
+    return hint
+
+
+def _rename_level(table: pd.DataFrame, final: pd.DataFrame, level: str, base: str) -> None:
+    """Call the base's refit of its fitted Coulomb level (dFc) by the level's name, in place."""
+    rename = {"dFc": level}
+    table["parameter"] = table["parameter"].replace(rename)
+    ours = final["part"] == base
+    final.loc[ours, "parameter"] = final.loc[ours, "parameter"].replace(rename)
 
 
 def level_finding(table: pd.DataFrame, known: str, unit: str, scores, known_se: float = 0.0,

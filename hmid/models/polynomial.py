@@ -183,7 +183,6 @@ class PolynomialModel(ForceModel):
         return row_design(self._terms, X, scales, getattr(self, "_monomials", {}))
 
     def _fit(self, X: Mapping[str, np.ndarray], y: np.ndarray) -> None:
-        from scipy import stats
         from statsmodels.stats.stattools import durbin_watson
 
         n, p = y.size, len(self._terms)
@@ -194,13 +193,46 @@ class PolynomialModel(ForceModel):
         scales = {v: _scale_of(X[v]) if self.scale else 1.0 for v in X}
         exog = self._design(X, scales)
         factor = np.array([term.scale_factor(scales) for term in self._terms])
-        self.hac_lags_ = None
         # least squares by blocks of rows: a long log's design is held once, not thrice
         solved = tall_lstsq(exog, y)
         params, resid, rank = solved.params, solved.resid, solved.rank
         cond = solved.condition_number()
         self.condition_number_unscaled_ = solved.condition_number(factor) if self.scale else cond
         gamma, self.acf_window_, self.tau_int_ = residual_correlation(resid)
+        cov, df = self._covariance(exog, y, solved, gamma)
+        del exog
+        bse = np.sqrt(np.diag(cov))
+        self.pvalues_, half = self._tests(params, bse, df)
+        self.df_ = df
+        self.params_ = params  # on the scaled design
+        self.scales_ = dict(scales)  # a plain dict: fitted models are pickled by the stage cache
+        self.term_names_ = tuple(term.name for term in self._terms)
+        self.coef_ = params / factor
+        self.cov_ = cov / np.outer(factor, factor)  # in physical units, as coef_
+        self.bse_ = bse / factor
+        self.conf_int_ = np.column_stack([params - half, params + half]) / factor[:, None]
+        self.condition_number_ = cond
+        self.durbin_watson_ = float(durbin_watson(resid))
+        self.coefficients_ = self._coefficients()
+        fit_stats = fit_statistics(y, y - resid, p)
+        self.summary_ = FitStatistics(
+            family=self.family,
+            name=self.name,
+            n_obs=n,
+            n_params=p,
+            condition_number=self.condition_number_,
+            condition_number_unscaled=self.condition_number_unscaled_,
+            warnings=self._diagnose(rank, p, n),
+            **fit_stats,
+        )
+
+    def _covariance(self, exog, y: np.ndarray, solved, gamma: np.ndarray):
+        """``(cov, df)`` of the parameters on the scaled design, as ``errors`` says: the
+        residual's autocovariance (df: the effectively independent rows), Newey-West (df None:
+        normal intervals) or i.i.d. OLS."""
+        n, p = y.size, len(self._terms)
+        resid = solved.resid
+        self.hac_lags_ = None
         if self.errors == "autocov":
             lags = self.acf_window_ if self.acf_window_ is not None else gamma.size - 1
             cov = autocov_covariance(exog, gamma[: lags + 1], solved.bread())
@@ -212,29 +244,27 @@ class PolynomialModel(ForceModel):
                 None,
             )
         else:
-            df = float(n - rank)
+            df = float(n - solved.rank)
             cov = solved.bread() * float(resid @ resid) / df
-        del exog
-        bse = np.sqrt(np.diag(cov))
+        return cov, df
+
+    def _tests(self, params: np.ndarray, bse: np.ndarray, df: float | None):
+        """``(p-values, interval half-widths)`` of the parameters, Student-t on ``df``."""
+        from scipy import stats
+
         with np.errstate(divide="ignore", invalid="ignore"):
             tvalues = params / bse
         if df is None:  # HAC: normal, as statsmodels reports it
-            self.pvalues_ = 2 * stats.norm.sf(np.abs(tvalues))
+            p_values = 2 * stats.norm.sf(np.abs(tvalues))
             half = stats.norm.ppf(0.5 + self.confidence / 2) * bse
         else:
-            self.pvalues_ = 2 * stats.t.sf(np.abs(tvalues), df)
+            p_values = 2 * stats.t.sf(np.abs(tvalues), df)
             half = stats.t.ppf(0.5 + self.confidence / 2, df) * bse
-        self.df_ = df
-        self.params_ = params  # on the scaled design
-        self.scales_ = dict(scales)  # a plain dict: fitted models are pickled by the stage cache
-        self.term_names_ = tuple(term.name for term in self._terms)
-        self.coef_ = params / factor
-        self.cov_ = cov / np.outer(factor, factor)  # in physical units, as coef_
-        self.bse_ = bse / factor
-        self.conf_int_ = np.column_stack([params - half, params + half]) / factor[:, None]
-        self.condition_number_ = cond
-        self.durbin_watson_ = float(durbin_watson(resid))
-        self.coefficients_ = tuple(
+        return p_values, half
+
+    def _coefficients(self) -> tuple[Coefficient, ...]:
+        """The fitted coefficients in physical units, one per term, with their intervals."""
+        return tuple(
             Coefficient(
                 name=f"C{k}",
                 term=term.name,
@@ -246,17 +276,6 @@ class PolynomialModel(ForceModel):
                 p_value=float(self.pvalues_[k]),
             )
             for k, term in enumerate(self._terms)
-        )
-        fit_stats = fit_statistics(y, y - resid, p)
-        self.summary_ = FitStatistics(
-            family=self.family,
-            name=self.name,
-            n_obs=n,
-            n_params=p,
-            condition_number=self.condition_number_,
-            condition_number_unscaled=self.condition_number_unscaled_,
-            warnings=self._diagnose(rank, p, n),
-            **fit_stats,
         )
 
     def _diagnose(self, rank: int, p: int, n_obs: int) -> tuple[str, ...]:

@@ -265,31 +265,9 @@ def render_html(report: Report, run_dir: str | Path) -> str:
     """The report as one self-contained HTML page; figures are read from ``run_dir``."""
     run_dir = Path(run_dir)
     entries = list(walk(report))
-    out = [
-        "<!DOCTYPE html>",
-        '<html lang="en">',
-        "<head>",
-        '<meta charset="utf-8">',
-        '<meta name="viewport" content="width=device-width, initial-scale=1">',
-        f'<meta http-equiv="Content-Security-Policy" content="{_CSP}">',
-        f"<title>{_e(report.title)}</title>",
-        f"<style>{_CSS}</style>",
-        "</head>",
-        "<body>",
-        "<main>",
-        f"<header><h1>{_e(report.title)}</h1></header>",
-    ]
+    out = _head(report.title)
     if report.summary:
-        items = "\n".join(
-            f"<div{_LONG if len(value) > LONG_FACT else ''}><dt>{_e(label)}</dt>"
-            f"<dd>{_e(value)}</dd></div>"
-            for label, value in report.summary
-        )
-        out += ['<section class="summary">', "<h2>Summary</h2>"]
-        if report.lead.strip():
-            out.append(f'<div class="lead">{text_to_html(report.lead)}</div>')
-        out.append(f"<dl>\n{items}\n</dl>")
-        out.append("</section>")
+        out += _summary(report)
     if len(entries) > 1:
         out.append(_toc(entries))
     n_tables = n_figures = 0
@@ -297,59 +275,112 @@ def render_html(report: Report, run_dir: str | Path) -> str:
     for entry in entries:
         while len(closers) >= entry.depth:  # close finished sections, deepest first
             out.append(closers.pop())
+        opening, closer = _opening(entry)
+        out += opening
+        closers.append(closer)
         section = entry.section
-        level = min(entry.depth + 1, 6)
-        out.append(f'<section id="{_anchor(entry.number)}">')
-        heading = f'<h{level}><span class="num">{entry.number}</span>{_e(section.title)}</h{level}>'
-        if section.collapsed:  # the heading opens it
-            more = f" {_e(section.summary)}" if section.summary else ""
-            out.append(f'<details class="section"><summary>{heading}<span class="more">'
-                       f"{more} (show)</span></summary>")  # fmt: skip
-            closers.append("</details></section>")
-        else:
-            out.append(heading)
-            closers.append("</section>")
         if section.text.strip():
             out.append(text_to_html(section.text))
         for table in section.tables:
             n_tables += 1
             out.append(_table(table, n_tables))
-        shown = [f for f in section.figures if not f.collapsed]
-        for figure in shown:
-            n_figures += 1
-            out.append(_figure(figure, n_figures, run_dir))
-        hidden = [f for f in section.figures if f.collapsed]
-        if len(hidden) == 1:
-            n_figures += 1
-            out.append(_figure(hidden[0], n_figures, run_dir))
-        elif hidden:  # several on request: one line opens them all
-            first, n_figures = n_figures + 1, n_figures + len(hidden)
-            inner = "\n".join(
-                _figure(replace(f, collapsed=False), first + i, run_dir)
-                for i, f in enumerate(hidden)
-            )
-            out.append(
-                f'<details class="figure"><summary><span class="label">Figures {first}–'
-                f"{n_figures}.</span> {_e('; '.join(f.caption for f in hidden))} "
-                f'<span class="more">(show)</span></summary>\n{inner}\n</details>'
-            )
+        figures, n_figures = _figures(section.figures, n_figures, run_dir)
+        out += figures
     out += reversed(closers)
     if report.provenance:
-        rows = "\n".join(
-            f'<tr><th scope="row">{_e(k)}</th><td><code>{_e(v)}</code></td></tr>'
-            for k, v in report.provenance.items()
-        )
-        out += [
-            '<footer class="provenance">',
-            "<h2>Provenance</h2>",
-            f"<details><summary>{_provenance_line(report.provenance)} (show all "
-            f"{len(report.provenance)})</summary>",
-            f"<table>\n<tbody>\n{rows}\n</tbody>\n</table>",
-            "</details>",
-            "</footer>",
-        ]
+        out += _provenance(report.provenance)
     out += ["</main>", f"<script>{_SCRIPT}</script>", "</body>", "</html>"]
     return "\n".join(out) + "\n"
+
+
+def _head(title: str) -> list[str]:
+    """The page up to its title: the head (policy, styles) and the opening of the body."""
+    return [
+        "<!DOCTYPE html>",
+        '<html lang="en">',
+        "<head>",
+        '<meta charset="utf-8">',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        f'<meta http-equiv="Content-Security-Policy" content="{_CSP}">',
+        f"<title>{_e(title)}</title>",
+        f"<style>{_CSS}</style>",
+        "</head>",
+        "<body>",
+        "<main>",
+        f"<header><h1>{_e(title)}</h1></header>",
+    ]
+
+
+def _summary(report: Report) -> list[str]:
+    """The summary: the lead, then the key facts as a list (a long one takes a whole row)."""
+    items = "\n".join(
+        f"<div{_LONG if len(value) > LONG_FACT else ''}><dt>{_e(label)}</dt>"
+        f"<dd>{_e(value)}</dd></div>"
+        for label, value in report.summary
+    )
+    out = ['<section class="summary">', "<h2>Summary</h2>"]
+    if report.lead.strip():
+        out.append(f'<div class="lead">{text_to_html(report.lead)}</div>')
+    out.append(f"<dl>\n{items}\n</dl>")
+    out.append("</section>")
+    return out
+
+
+def _opening(entry: Entry) -> tuple[list[str], str]:
+    """The lines that open a section, with its heading, and what closes it; a collapsed section
+    opens from its heading."""
+    section = entry.section
+    level = min(entry.depth + 1, 6)
+    out = [f'<section id="{_anchor(entry.number)}">']
+    heading = f'<h{level}><span class="num">{entry.number}</span>{_e(section.title)}</h{level}>'
+    if section.collapsed:  # the heading opens it
+        more = f" {_e(section.summary)}" if section.summary else ""
+        out.append(f'<details class="section"><summary>{heading}<span class="more">'
+                   f"{more} (show)</span></summary>")  # fmt: skip
+        return out, "</details></section>"
+    out.append(heading)
+    return out, "</section>"
+
+
+def _figures(figures, n_figures: int, run_dir: Path) -> tuple[list[str], int]:
+    """A section's figures numbered on from ``n_figures``, and the last number: those shown
+    first, then those on request (several behind one line)."""
+    out = []
+    shown = [f for f in figures if not f.collapsed]
+    for figure in shown:
+        n_figures += 1
+        out.append(_figure(figure, n_figures, run_dir))
+    hidden = [f for f in figures if f.collapsed]
+    if len(hidden) == 1:
+        n_figures += 1
+        out.append(_figure(hidden[0], n_figures, run_dir))
+    elif hidden:  # several on request: one line opens them all
+        first, n_figures = n_figures + 1, n_figures + len(hidden)
+        inner = "\n".join(
+            _figure(replace(f, collapsed=False), first + i, run_dir) for i, f in enumerate(hidden)
+        )
+        out.append(
+            f'<details class="figure"><summary><span class="label">Figures {first}–'
+            f"{n_figures}.</span> {_e('; '.join(f.caption for f in hidden))} "
+            f'<span class="more">(show)</span></summary>\n{inner}\n</details>'
+        )
+    return out, n_figures
+
+
+def _provenance(provenance) -> list[str]:
+    """The footer: a one-line provenance that opens the whole table."""
+    rows = "\n".join(
+        f'<tr><th scope="row">{_e(k)}</th><td><code>{_e(v)}</code></td></tr>'
+        for k, v in provenance.items()
+    )
+    return [
+        '<footer class="provenance">',
+        "<h2>Provenance</h2>",
+        f"<details><summary>{_provenance_line(provenance)} (show all {len(provenance)})</summary>",
+        f"<table>\n<tbody>\n{rows}\n</tbody>\n</table>",
+        "</details>",
+        "</footer>",
+    ]
 
 
 def _provenance_line(provenance) -> str:

@@ -60,51 +60,7 @@ def sls_data(segments: Sequence[pd.DataFrame]) -> SLSData:
         raise SignalError("sls_data: no segments given; pass a list of DataFrames")
     parts: dict[str, list[np.ndarray]] = {c: [] for c in (*_COLUMNS, "start", "x3")}
     for i, frame in enumerate(segments):
-        source = f"sls_data segment {i}"
-        if not isinstance(frame, pd.DataFrame):
-            raise SignalError(f"{source}: expected a pandas DataFrame, got {type(frame).__name__}")
-        missing = [c for c in _COLUMNS if c not in frame.columns]
-        if missing:
-            raise SignalError(
-                f"{source}: missing columns {missing}; need {list(_COLUMNS)} (SI units)"
-            )
-        if len(frame) < 2:
-            raise SignalError(f"{source}: has {len(frame)} rows; a log needs at least 2")
-        use = frame["use"].to_numpy()
-        if use.dtype != bool:
-            raise SignalError(
-                f"{where(source, 'use')}must be boolean, got dtype {use.dtype}; "
-                "use a True/False mask"
-            )
-        columns = {}
-        for name in ("t", "x", "P", "F", *(("x3",) if "x3" in frame.columns else ())):
-            try:
-                values = frame[name].to_numpy(dtype="float64")
-            except (TypeError, ValueError):
-                raise SignalError(
-                    f"{where(source, name)}not numeric (dtype {frame[name].dtype})"
-                ) from None
-            finite = np.isfinite(values) | (~use if name == "F" else False)
-            if not finite.all():
-                row = int(np.argmin(finite))
-                extra = " on a used row" if name == "F" else ""
-                raise SignalError(
-                    f"{where(source, name, row)}value {values[row]} is not finite{extra}; "
-                    "drop or interpolate it, or split the log there"
-                )
-            columns[name] = values
-        steps = np.diff(columns["t"])
-        if not (steps > 0).all():
-            row = int(np.argmin(steps > 0)) + 1
-            raise SignalError(
-                f"{where(source, 't', row)}time {columns['t'][row]} does not increase "
-                f"(previous {columns['t'][row - 1]}); sort the log or split it there"
-            )
-        columns["F"] = np.where(use, columns["F"], 0.0)
-        columns.setdefault("x3", columns["x"] ** 3)
-        start = np.zeros(len(frame), dtype=bool)
-        start[0] = True
-        for name, values in (*columns.items(), ("use", use), ("start", start)):
+        for name, values in _segment(frame, f"sls_data segment {i}").items():
             parts[name].append(values)
     arrays = {name: np.concatenate(chunks) for name, chunks in parts.items()}
     if not arrays["use"].any():
@@ -119,3 +75,57 @@ def sls_data(segments: Sequence[pd.DataFrame]) -> SLSData:
             start=jnp.asarray(arrays["start"], dtype=bool),
             x3=jnp.asarray(arrays["x3"], dtype=jnp.float64),
         )
+
+
+def _segment(frame: pd.DataFrame, source: str) -> dict[str, np.ndarray]:
+    """One log's arrays, checked: its float64 columns (``F`` 0 where unused, ``x3`` x³ where
+    not given), ``use``, and ``start`` (true at its first sample)."""
+    use = _use(frame, source)
+    names = ("t", "x", "P", "F", *(("x3",) if "x3" in frame.columns else ()))
+    columns = {name: _finite(frame, source, name, use) for name in names}
+    steps = np.diff(columns["t"])
+    if not (steps > 0).all():
+        row = int(np.argmin(steps > 0)) + 1
+        raise SignalError(
+            f"{where(source, 't', row)}time {columns['t'][row]} does not increase "
+            f"(previous {columns['t'][row - 1]}); sort the log or split it there"
+        )
+    columns["F"] = np.where(use, columns["F"], 0.0)
+    columns.setdefault("x3", columns["x"] ** 3)
+    start = np.zeros(len(frame), dtype=bool)
+    start[0] = True
+    return {**columns, "use": use, "start": start}
+
+
+def _use(frame: pd.DataFrame, source: str) -> np.ndarray:
+    """The ``use`` mask of a segment that is a DataFrame with every column and two rows."""
+    if not isinstance(frame, pd.DataFrame):
+        raise SignalError(f"{source}: expected a pandas DataFrame, got {type(frame).__name__}")
+    missing = [c for c in _COLUMNS if c not in frame.columns]
+    if missing:
+        raise SignalError(f"{source}: missing columns {missing}; need {list(_COLUMNS)} (SI units)")
+    if len(frame) < 2:
+        raise SignalError(f"{source}: has {len(frame)} rows; a log needs at least 2")
+    use = frame["use"].to_numpy()
+    if use.dtype != bool:
+        raise SignalError(
+            f"{where(source, 'use')}must be boolean, got dtype {use.dtype}; use a True/False mask"
+        )
+    return use
+
+
+def _finite(frame: pd.DataFrame, source: str, name: str, use: np.ndarray) -> np.ndarray:
+    """Column ``name`` as float64, finite everywhere (``F``: on the used rows)."""
+    try:
+        values = frame[name].to_numpy(dtype="float64")
+    except (TypeError, ValueError):
+        raise SignalError(f"{where(source, name)}not numeric (dtype {frame[name].dtype})") from None
+    finite = np.isfinite(values) | (~use if name == "F" else False)
+    if not finite.all():
+        row = int(np.argmin(finite))
+        extra = " on a used row" if name == "F" else ""
+        raise SignalError(
+            f"{where(source, name, row)}value {values[row]} is not finite{extra}; "
+            "drop or interpolate it, or split the log there"
+        )
+    return values

@@ -179,27 +179,10 @@ def initial_fit(
     Raises :class:`StartError` if Levenberg-Marquardt does not report success.
     """
     space = model.space
-    grid = np.geomspace(1e-3, 10.0, 40) if tau_grid is None else np.asarray(tau_grid, float)
-    if grid.ndim != 1 or len(grid) < space.arms or not np.all(np.isfinite(grid) & (grid > 0)):
-        raise ConfigError(
-            f"initial_fit: tau_grid needs at least {space.arms} positive finite times (s), "
-            f"got {grid!r}"
-        )
-    grid = np.unique(grid)
+    grid = _checked_grid(space, tau_grid)
     tuples, sse, best, linear, k2, taus = _grid_search(space, data, grid)
-    notes = []
-    centre = space.to_physical(space.prior_centre())
-    physical = dict(linear)
-    for i, (name, tau_name) in enumerate(space.arm_names()):
-        physical[name], physical[tau_name] = float(k2[i]), float(taus[i])
-    for name in [p for p in space.physical_names if p not in ("F0", "sigma", "phi")]:
-        if not physical[name] > 0:
-            floor = float(centre[name]) * math.exp(-2 * PRIOR_SD)
-            notes.append(
-                f"{name} = {physical[name]:.4g} from the linear fit is not positive; "
-                f"started at {floor:.3g} instead"
-            )
-            physical[name] = floor
+    notes: list[str] = []
+    physical = _positive_start(space, linear, k2, taus, notes)
     n_used = int(np.sum(np.asarray(data.use)))
     scale = max(math.sqrt(float(sse[best]) / n_used), 1e-12)
     physical.update(sigma=scale, phi=0.0)
@@ -231,6 +214,35 @@ def initial_fit(
         tau_profile=(tuples, sse), status="successful", message=message,
         n_steps=int(steps), notes=tuple(notes),
     )  # fmt: skip
+
+
+def _checked_grid(space: SLSSpace, tau_grid) -> np.ndarray:
+    """The sorted distinct taus (s) of ``tau_grid``, by default 40 log-spaced from 1 ms to 10 s."""
+    grid = np.geomspace(1e-3, 10.0, 40) if tau_grid is None else np.asarray(tau_grid, float)
+    if grid.ndim != 1 or len(grid) < space.arms or not np.all(np.isfinite(grid) & (grid > 0)):
+        raise ConfigError(
+            f"initial_fit: tau_grid needs at least {space.arms} positive finite times (s), "
+            f"got {grid!r}"
+        )
+    return np.unique(grid)
+
+
+def _positive_start(space: SLSSpace, linear, k2, taus, notes: list[str]) -> dict[str, float]:
+    """The best grid point's physical parameters; one the prior keeps positive that the linear
+    fit made not positive starts two prior widths below the prior's centre (noted in ``notes``)."""
+    centre = space.to_physical(space.prior_centre())
+    physical = dict(linear)
+    for i, (name, tau_name) in enumerate(space.arm_names()):
+        physical[name], physical[tau_name] = float(k2[i]), float(taus[i])
+    for name in [p for p in space.physical_names if p not in ("F0", "sigma", "phi")]:
+        if not physical[name] > 0:
+            floor = float(centre[name]) * math.exp(-2 * PRIOR_SD)
+            notes.append(
+                f"{name} = {physical[name]:.4g} from the linear fit is not positive; "
+                f"started at {floor:.3g} instead"
+            )
+            physical[name] = floor
+    return physical
 
 
 def _order_arms(space: SLSSpace, theta: np.ndarray) -> tuple[np.ndarray, str | None]:
