@@ -110,9 +110,10 @@ def _substep(c: _Constants, effects, dt, held, P_cmd, state, valve=None, command
         # exact first-order step (stable for any tau), then the valve's flow limit
         target = P_cmd + (P - P_cmd) * jnp.exp(-dt / c.valve_tau)
         P = P + jnp.clip(target - P, -c.slew * dt, c.slew * dt)
-        openings = ()
+        extra: tuple = ()
     else:  # inlet and outlet solenoids: the openings are state
         openings, P = fill_vent(valve, state[6], P, command, dt)
+        extra = (openings,)
     F_app = _muscle_force(c, effects, t, x, v, q, P) - c.m1 * c.g
     mass = c.M + c.m1
 
@@ -148,7 +149,7 @@ def _substep(c: _Constants, effects, dt, held, P_cmd, state, valve=None, command
     f_eff = jnp.where(contact | blocked, friction, F_app - mass * a_eff)
     tension = jnp.where(contact, jnp.inf, c.m1 * (c.g + a_eff))
     F_m = F_app + c.m1 * c.g
-    return (t + dt, x_new, v_new, q_new, P, stuck_new, *openings), (
+    return (t + dt, x_new, v_new, q_new, P, stuck_new, *extra), (
         a_eff,
         f_eff,
         F_m,
