@@ -33,13 +33,14 @@ CONTROLLERS: tuple[Controller, ...] = ("PD", "FF+PD", "FF")
 @dataclass(frozen=True)
 class Tracking:
     """A closed-loop run: the output (truth) and the reference at the instants ``t``, the
-    controller's effort (Pa) and the pressure, the on/off valves' commands (None for a
-    proportional valve), and the scores."""
+    feed-forward and the controller's effort (Pa, per command), the pressure, the on/off
+    valves' commands (None for a proportional valve), and the scores."""
 
     controller: Controller
     reference: Reference
     t: np.ndarray
     output: np.ndarray
+    feedforward: np.ndarray
     effort: np.ndarray
     pressure: np.ndarray
     valve: np.ndarray | None
@@ -54,19 +55,30 @@ def tracker(plant: Plant, tuning: Tuning, controller: Controller = "FF+PD") -> T
                    jnp.asarray(0.0 if controller == "FF" else 1.0))  # fmt: skip
 
 
+@dataclass(frozen=True)
+class FeedForward:
+    """The effort per command (one fewer than the reference's samples) and the pressure the
+    rig starts at, at rest (the one that holds the reference's start, by the model)."""
+
+    commands: np.ndarray
+    start: float
+
+
 def feedforward(
     plant: Plant, law: ForceLaw, ref: Reference, controller: Controller, valve_tau: float
-) -> np.ndarray:
-    """The feed-forward effort per command (one fewer than the reference's samples)."""
+) -> FeedForward:
+    """The feed-forward of ``controller``: the hold pressure for PD alone, the model's inverse
+    dynamics otherwise."""
+    start = plant.hold(law, ref)
     if controller == "PD":
-        return np.full(len(ref.t) - 1, plant.hold(law, ref))
-    return plant.feedforward(law, ref, valve_tau)
+        return FeedForward(np.full(len(ref.t) - 1, start), start)
+    return FeedForward(plant.feedforward(law, ref, valve_tau), start)
 
 
 def track(
     plant: Plant,
     tuning: Tuning,
-    ff: np.ndarray,
+    ff: FeedForward,
     ref: Reference,
     controller: Controller,
     seed: int = 0,
@@ -75,14 +87,15 @@ def track(
     at the plant's rate; command k acts from ref.t[k] to ref.t[k + 1])."""
     n = len(ref.t) - 1
     noise = plant.noise * np.random.default_rng(seed).standard_normal(n)
-    references = {"r": ref.y[:-1], "ff": ff, "noise": noise}
+    references = {"r": ref.y[:-1], "ff": ff.commands, "noise": noise}
     traj, commands = closed_loop(
         plant.rig(), tracker(plant, tuning, controller), references, plant.rate,
-        initial_inputs=plant.inputs(n, float(ff[0])), initial_outputs=plant.outputs(float(ff[0])),
+        initial_inputs=plant.inputs(n, ff.start), initial_outputs=plant.outputs(ff.start),
     )  # fmt: skip
     output = getattr(traj, plant.tracked)
     valve = commands.get("valve")
-    effort = commands.get("P_cmd", ff)
+    effort = commands.get("P_cmd", ff.commands)
     metrics = score(ref, traj.t, output, plant.resolution, valve)
     pressure = traj.signals.get("P", np.full(n, np.nan))
-    return Tracking(controller, ref, traj.t, output, effort, pressure, valve, metrics)
+    return Tracking(controller, ref, traj.t, output, ff.commands, effort, pressure, valve,
+                    metrics)  # fmt: skip

@@ -93,6 +93,7 @@ class MuscleRig:
     rate: float = 1000.0
     noise: float = 0.0
     substeps: int = 20
+    sensor_step: float | None = None  # None: the rig's sensor's resolution; 0: exact
 
     @property
     def tracked(self) -> str:
@@ -104,6 +105,8 @@ class MuscleRig:
 
     @property
     def resolution(self) -> float:
+        if self.sensor_step is not None:
+            return self.sensor_step
         return 10.24 / 1024 if self.task == "force" else 0.02048 / 1024
 
     def rig(self) -> HydroMuscle:
