@@ -91,7 +91,7 @@ def ripple(task: TaskResult, valves: str) -> float:
     """RMS of the pressure about the model's demand (the feed-forward) over the FF+PD runs on
     ``valves`` (Pa): what the valves add to the force the model asked for."""
     runs = [r for (_, v, c), r in task.runs.items() if v == valves and c == "FF+PD"]
-    gap = np.concatenate([r.pressure - r.feedforward for r in runs])
+    gap = np.concatenate([r.pressure - r.demand for r in runs])
     return float(np.sqrt(np.mean(gap**2)))
 
 

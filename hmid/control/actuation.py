@@ -43,7 +43,7 @@ class Proportional(eqx.Module):
 
 class Switching(eqx.Module):
     """Fill below ``command - band``, vent above ``command + band``, hold between (on the
-    pressure as its sensor reads it)."""
+    rig's pressure output)."""
 
     band: Any = 5.0e3  # Pa
     pressure: str = eqx.field(static=True, default="P")

@@ -33,14 +33,15 @@ CONTROLLERS: tuple[Controller, ...] = ("PD", "FF+PD", "FF")
 @dataclass(frozen=True)
 class Tracking:
     """A closed-loop run: the output (truth) and the reference at the instants ``t``, the
-    feed-forward and the controller's effort (Pa, per command), the pressure, the on/off
+    model's demanded pressure (at ``t``) and the controller's effort (Pa, per command), the
+    pressure, the on/off
     valves' commands (None for a proportional valve), and the scores."""
 
     controller: Controller
     reference: Reference
     t: np.ndarray
     output: np.ndarray
-    feedforward: np.ndarray
+    demand: np.ndarray
     effort: np.ndarray
     pressure: np.ndarray
     valve: np.ndarray | None
@@ -57,10 +58,12 @@ def tracker(plant: Plant, tuning: Tuning, controller: Controller = "FF+PD") -> T
 
 @dataclass(frozen=True)
 class FeedForward:
-    """The effort per command (one fewer than the reference's samples) and the pressure the
-    rig starts at, at rest (the one that holds the reference's start, by the model)."""
+    """The effort per command (one fewer than the reference's samples), the pressure the
+    model demands at every sample of the reference, and the pressure the rig starts at, at rest
+    (the one that holds the reference's start, by the model)."""
 
     commands: np.ndarray
+    demand: np.ndarray
     start: float
 
 
@@ -71,8 +74,8 @@ def feedforward(
     dynamics otherwise."""
     start = plant.hold(law, ref)
     if controller == "PD":
-        return FeedForward(np.full(len(ref.t) - 1, start), start)
-    return FeedForward(plant.feedforward(law, ref, valve_tau), start)
+        return FeedForward(np.full(len(ref.t) - 1, start), np.full(len(ref.t), start), start)
+    return FeedForward(plant.feedforward(law, ref, valve_tau), plant.demand(law, ref), start)
 
 
 def track(
@@ -97,5 +100,5 @@ def track(
     effort = commands.get("P_cmd", ff.commands)
     metrics = score(ref, traj.t, output, plant.resolution, valve)
     pressure = traj.signals.get("P", np.full(n, np.nan))
-    return Tracking(controller, ref, traj.t, output, ff.commands, effort, pressure, valve,
+    return Tracking(controller, ref, traj.t, output, ff.demand[1:], effort, pressure, valve,
                     metrics)  # fmt: skip

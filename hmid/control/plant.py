@@ -62,6 +62,8 @@ class Plant(Protocol):
 
     def outputs(self, effort0: float) -> dict[str, float]: ...
 
+    def demand(self, law: ForceLaw, ref: Reference) -> np.ndarray: ...
+
     def feedforward(self, law: ForceLaw, ref: Reference, valve_tau: float) -> np.ndarray: ...
 
     def hold(self, law: ForceLaw, ref: Reference) -> float: ...
@@ -127,8 +129,9 @@ class MuscleRig:
             _, _, F_m = _reading(c, effects, init)
         return _OUT0 | {"P": float(effort0), "x": float(init[1]), "F_m": float(F_m)}
 
-    def _demand(self, law: ForceLaw, ref: Reference) -> np.ndarray:
-        """The pressure the model says the reference needs, at the sample instants."""
+    def demand(self, law: ForceLaw, ref: Reference) -> np.ndarray:
+        """The pressure the model says the reference needs, at the sample instants (the
+        inverse dynamics)."""
         if self.task == "force":
             x = np.full_like(ref.y, self.hold_at)
             zero = np.zeros_like(ref.y)
@@ -139,7 +142,7 @@ class MuscleRig:
         """The model's pressure along the reference, through the valve's inverted lag (one
         command per sample of the reference but the last); on/off valves are switched on the
         pressure itself, so they get it as it is."""
-        P = self._demand(law, ref)
+        P = self.demand(law, ref)
         if self.valves is not None:
             return P[:-1]
         return lead(P, valve_tau, 1.0 / self.rate)
@@ -148,7 +151,7 @@ class MuscleRig:
         """The pressure that holds the reference's start (PD alone's operating point)."""
         start = replace(ref, t=ref.t[:2], y=np.full(2, ref.y[0]), dy=np.zeros(2),
                         ddy=np.zeros(2))  # fmt: skip
-        return float(self._demand(law, start)[0])
+        return float(self.demand(law, start)[0])
 
     def linear(self, law: ForceLaw, ref: Reference, valve_tau: float) -> Any:
         """The plant linearised at the reference's start (``control.StateSpace``, continuous:
