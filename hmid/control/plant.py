@@ -26,7 +26,7 @@ from hmid.control.actuation import Actuation, Proportional
 from hmid.control.inverse import ForceLaw, lead
 from hmid.control.references import Reference
 from hmid.simulate.effects import Effect
-from hmid.simulate.params import MuscleParams, RigParams
+from hmid.simulate.params import MuscleParams, RigParams, Sensors
 from hmid.simulate.rig import SimulatedRig
 from hmid.simulate.rigs.hydro_muscle import HydroMuscle, _reading
 from hmid.simulate.valves import OnOffValves
@@ -109,7 +109,8 @@ class MuscleRig:
     def resolution(self) -> float:
         if self.sensor_step is not None:
             return self.sensor_step
-        return 10.24 / 1024 if self.task == "force" else 0.02048 / 1024
+        sensors = Sensors()  # the demo's 10-bit sensors: 0.01 N, 0.02 mm
+        return sensors.F.lsb if self.task == "force" else sensors.x.lsb
 
     def rig(self) -> HydroMuscle:
         x0 = self.hold_at if self.task == "force" else None
