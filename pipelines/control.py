@@ -39,8 +39,11 @@ def run(
             f"{folder_of_run} (it has {names})"
         )
     ForceLaw.of(model)  # a model without an inverse is said before a run folder is made
+    inputs = [model.path]
+    if model.document.get("posterior"):  # the robustness study's draws
+        inputs.append(model.path.parent / model.document["posterior"])
     with open_run(results, config.name, config_path, config_json(config), config.seed,
-                  [model.path]) as folder:  # fmt: skip
+                  inputs) as folder:  # fmt: skip
         with folder.manifest.stage("study"):
             study = run_study(config, model, progress)
         with folder.manifest.stage("report"):

@@ -34,7 +34,9 @@ def test_the_shipped_config_runs_and_writes_its_report(identified, tmp_path, cap
         assert (run_dir / name).is_file(), name
     manifest = json.loads((run_dir / "manifest.json").read_text())
     assert manifest["status"] == "complete"
-    assert any(p.endswith("sls.json") for p in manifest["inputs_sha256"])
+    hashed = manifest["inputs_sha256"]
+    assert any(p.endswith("sls.json") for p in hashed)
+    assert any(p.endswith("sls.posterior.nc") for p in hashed)  # the draws it used
     targets = pd.read_csv(run_dir / "tables" / "targets.csv")
     assert len(targets) == 2 * 2 * 2  # tasks x references x valves
     proportional = targets[targets["valves"] == "proportional"]
