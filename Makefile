@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint demo-data linear-motor-data bench calibration blind study clean
+.PHONY: demo test lint demo-data linear-motor-data bench calibration blind study control clean
 
 # setuptools' "Editable installation" warning is about folders named like the package in the
 # working directory: none here, and a user can do nothing about it
@@ -52,6 +52,10 @@ calibration: $(STAMP)
 ## blind: the full blind suite of the loop (about half an hour on 2 cores)
 blind: $(STAMP)
 	$(BIN)/hmid blind configs/blind/full.yaml --workers 2
+
+## control: model-based control of the simulated Ch. 4 rig with the demo's model (after make demo)
+control: $(STAMP)
+	$(BIN)/hmid control configs/control/muscle.yaml
 
 ## study: the pneumatic cylinder's three seals on the measured logs (skips if ../shared is absent)
 study: $(STAMP)

@@ -33,6 +33,8 @@ commands:
   sweep       run one experiment over many logs or settings (process pool or Dask cluster)
               and compare the runs in one table
   blind       test the loop blind on simulated logs with undeclared effects
+  control     model-based control in simulation: PD alone vs the identified model's
+              feed-forward + PD, on proportional and on/off valves, and its robustness
   runs        list run folders with their status (complete, failed, running, stale); remove
               the failed ones on request
 """
@@ -201,6 +203,17 @@ def _blind(args: argparse.Namespace) -> int:
     return 0 if targets["met"].all() else 1
 
 
+def _control(args: argparse.Namespace) -> int:
+    from pipelines.control import run
+
+    say = None if args.quiet else (lambda what: print(f"hmid control: {what}", file=sys.stderr))
+    run_dir, metrics = run(Path(args.config), results=Path(args.results), progress=say)
+    for name, met in metrics["targets"].items():
+        print(f"{name}: {'met' if met else 'not met' if met is not None else 'n/a'}")
+    print(f"report: {run_dir / 'report.html'}")
+    return 0
+
+
 def _runs(args: argparse.Namespace) -> int:
 
     entries = list_runs(Path(args.root))
@@ -314,6 +327,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, help="local worker processes (default: the config's)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_blind)
+
+    p = sub.add_parser(
+        "control",
+        help="model-based control of the simulated rig with an identified model",
+        description="Load the model a run of hmid run identified (the config's model.run: a "
+        "run folder or an experiment's folder, its newest complete run; run `make demo` "
+        "first for configs/control/muscle.yaml), tune the PD set-point tracker on the model's "
+        "linearisation (python-control), track steps both ways, a sine and a gait-like cycle "
+        "with PD alone and with the model's inverse dynamics as feed-forward + the same PD, on "
+        "proportional and on/off valves, then on plants drawn from the model's posterior and "
+        "with undeclared effects; write results/<name>/<run-id>/ (report.html, report.md, "
+        "metrics.json, tables/, figures/, manifest.json, config.yaml).",
+    )
+    p.add_argument("config", type=Path, help="control config (YAML), configs/control/*.yaml")
+    p.add_argument("--results", default="results", help="results root folder (default: results)")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.set_defaults(func=_control)
 
     p = sub.add_parser(
         "runs",

@@ -183,6 +183,10 @@ def _closed_scan(sample: Callable, controller, params, init, inputs, refs, names
     return out, commands
 
 
+def _traced(leaf: Any) -> Any:
+    return jnp.asarray(leaf, dtype=float) if type(leaf) is float else leaf
+
+
 def closed_loop(
     rig: SimulatedRig,
     controller: Controller,
@@ -206,6 +210,9 @@ def closed_loop(
     inputs = {k: np.asarray(v) for k, v in initial_inputs.items() if v is not None}
     with jax.enable_x64(True):
         params, init, xs = rig.prepare(inputs, rate, substeps)
+        # the rig's numbers traced, as integrate traces them (filter_jit would compile every
+        # Python float in: each new muscle, e.g. a posterior draw, would compile again)
+        params = jax.tree.map(_traced, params)
         # float64 only inside the x64 context: a reference made outside it would be float32
         references = jax.tree.map(lambda a: jnp.asarray(np.asarray(a)), references)
         out0 = {k: jnp.asarray(v, dtype=float) for k, v in initial_outputs.items()}

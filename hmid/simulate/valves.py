@@ -54,19 +54,25 @@ class OnOffValves(_Frozen):
 
     def step(self, state: Any, P: Any, command: Any, dt: float) -> tuple[Any, Any]:
         """(openings, pressure) after ``dt`` for the command in [-1, 1]."""
-        s_in, s_out = state
-        want_in, want_out = jnp.clip(command, 0.0, 1.0), jnp.clip(-command, 0.0, 1.0)
+        return fill_vent(self, state, P, command, dt)
 
-        def move(s, want):
-            rate = jnp.where(want > s, 1.0 / self.opening_time, 1.0 / self.closing_time)
-            return s + jnp.clip(want - s, -rate * dt, rate * dt)
 
-        s_in, s_out = move(s_in, want_in), move(s_out, want_out)
-        # exact step of the linear line equation for the openings held over dt
-        g = (s_in + s_out) / self.line_tau
-        target = jnp.where(g > 0, s_in * self.supply / jnp.where(g > 0, g * self.line_tau, 1), P)
-        P = target + (P - target) * jnp.exp(-g * dt)
-        return (s_in, s_out), P
+def fill_vent(valves: Any, state: Any, P: Any, command: Any, dt: Any) -> tuple[Any, Any]:
+    """One step of inlet and outlet solenoid valves: ``valves`` is anything with the fields of
+    :class:`OnOffValves` (the config, or a rig's traced copy of its numbers)."""
+    s_in, s_out = state
+    want_in, want_out = jnp.clip(command, 0.0, 1.0), jnp.clip(-command, 0.0, 1.0)
+
+    def move(s, want):
+        rate = jnp.where(want > s, 1.0 / valves.opening_time, 1.0 / valves.closing_time)
+        return s + jnp.clip(want - s, -rate * dt, rate * dt)
+
+    s_in, s_out = move(s_in, want_in), move(s_out, want_out)
+    # exact step of the linear line equation for the openings held over dt
+    g = (s_in + s_out) / valves.line_tau
+    target = jnp.where(g > 0, s_in * valves.supply / jnp.where(g > 0, g * valves.line_tau, 1), P)
+    P = target + (P - target) * jnp.exp(-g * dt)
+    return (s_in, s_out), P
 
 
 Valve = ProportionalValve | OnOffValves

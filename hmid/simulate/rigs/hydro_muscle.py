@@ -16,8 +16,10 @@ scale the latex's springs or add muscle forces (a dashpot: explicit, at the step
 velocity). Accelerations and forces are logged from the last substep before each sample instant
 (a sample-and-hold reading, time-aligned to within one substep), so F_m - m1 g - friction =
 (M + m1) a holds exactly at every logged sample. The pressure follows the command through the
-valve's slew-limited first-order lag. :func:`hmid.simulate.rig.integrate` runs the loop: a 60 s
-log at 1 kHz with 20 substeps takes well under a second after compilation.
+valve's slew-limited first-order lag; or, with ``valves`` set (:class:`~hmid.simulate.valves.
+OnOffValves`, for control), the input ``valve`` opens an inlet (+1) or an outlet (-1) solenoid
+valve and ``P_cmd`` only sets the starting pressure. :func:`hmid.simulate.rig.integrate` runs the
+loop: a 60 s log at 1 kHz with 20 substeps takes well under a second after compilation.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from hmid.errors import SimulationError
 from hmid.simulate.effects import Effect
 from hmid.simulate.params import RigParams
 from hmid.simulate.rig import SimulatedRig, Trajectory
+from hmid.simulate.valves import OnOffValves, fill_vent
 
 
 class _Constants(NamedTuple):
@@ -92,11 +95,25 @@ def _muscle_force(c: _Constants, effects, t, x, v, q, P):
     return c.connected * force
 
 
-def _substep(c: _Constants, effects, dt, held, P_cmd, state):
-    t, x, v, q, P, stuck = state
-    # exact first-order step (stable for any tau), then the valve's flow limit
-    target = P_cmd + (P - P_cmd) * jnp.exp(-dt / c.valve_tau)
-    P = P + jnp.clip(target - P, -c.slew * dt, c.slew * dt)
+class _OnOff(NamedTuple):
+    """On/off valves' numbers as a pytree (traced): the fields of OnOffValves."""
+
+    supply: float
+    opening_time: float
+    closing_time: float
+    line_tau: float
+
+
+def _substep(c: _Constants, effects, dt, held, P_cmd, state, valve=None, command=0.0):
+    t, x, v, q, P, stuck = state[:6]
+    if valve is None:
+        # exact first-order step (stable for any tau), then the valve's flow limit
+        target = P_cmd + (P - P_cmd) * jnp.exp(-dt / c.valve_tau)
+        P = P + jnp.clip(target - P, -c.slew * dt, c.slew * dt)
+        extra: tuple = ()
+    else:  # inlet and outlet solenoids: the openings are state
+        openings, P = fill_vent(valve, state[6], P, command, dt)
+        extra = (openings,)
     F_app = _muscle_force(c, effects, t, x, v, q, P) - c.m1 * c.g
     mass = c.M + c.m1
 
@@ -132,7 +149,7 @@ def _substep(c: _Constants, effects, dt, held, P_cmd, state):
     f_eff = jnp.where(contact | blocked, friction, F_app - mass * a_eff)
     tension = jnp.where(contact, jnp.inf, c.m1 * (c.g + a_eff))
     F_m = F_app + c.m1 * c.g
-    return (t + dt, x_new, v_new, q_new, P, stuck_new), (
+    return (t + dt, x_new, v_new, q_new, P, stuck_new, *extra), (
         a_eff,
         f_eff,
         F_m,
@@ -145,7 +162,7 @@ def _reading(c: _Constants, effects, state):
     """Acceleration, friction and muscle force *at* the sample instant, from the state the
     sample logs: forces of the last substep's start would lag the logged position by a
     substep, which identification reads as negative damping (stiffness x 50 us)."""
-    t, x, v, q, P, stuck = state
+    t, x, v, q, P, stuck = state[:6]
     F_app = _muscle_force(c, effects, t, x, v, q, P) - c.m1 * c.g
     sliding = jnp.sign(v) * c.Fc + sum(e.sliding(v, P, x) for e in effects)
     at_stop = ((x <= c.x_min) & (F_app < 0)) | ((x >= c.x_max) & (F_app > 0))
@@ -156,12 +173,13 @@ def _reading(c: _Constants, effects, state):
 
 
 def _sample(params, state, inputs, substeps: int):
-    c, effects, dt = params
-    P_c, hold = inputs
+    c, effects, dt, valve = params
+    P_c, hold, command = inputs
 
     def body(_, carry):
         st, _, touched, t_min = carry
-        st, (a, f, F_m, contact, tension) = _substep(c, effects, dt, hold, P_c, st)
+        st, (a, f, F_m, contact, tension) = _substep(c, effects, dt, hold, P_c, st, valve,
+                                                     command)  # fmt: skip
         return st, (a, f, F_m), touched | contact, jnp.minimum(t_min, tension)
 
     zero = jnp.zeros(())
@@ -169,7 +187,7 @@ def _sample(params, state, inputs, substeps: int):
         0, substeps, body, (state, (zero, zero, zero), False, jnp.inf)
     )
     a, f, F_m = _reading(c, effects, state)
-    _, x, v, q, P, stuck = state
+    _, x, v, q, P, stuck = state[:6]
     out = {"P": P, "x": x, "v": v, "a": a, "F_m": F_m, "friction": f, "q": q, "stuck": stuck}
     return state, out | {"contact": touched, "tension_min": t_min}
 
@@ -195,7 +213,9 @@ def equilibrium(rig: RigParams, P: float, effects: tuple[Effect, ...] = ()) -> f
 @dataclass(frozen=True)
 class HydroMuscle(SimulatedRig):
     """The Ch. 4 rig for :func:`~hmid.simulate.rig.integrate`: inputs ``P_cmd`` (Pa, held over
-    each sample) and optionally ``held`` (the block clamped during sample k: free-fall release).
+    each sample) and optionally ``held`` (the block clamped during sample k: free-fall release)
+    and ``valve`` (with ``valves`` set: the on/off valves' command in [-1, 1]; P_cmd[0] is then
+    the starting pressure, the rest of P_cmd is recorded, not used).
 
     Starts at rest with P = P_cmd[0] and, for a connected muscle, at the static equilibrium
     unless ``x0`` is given (without the muscle, at ``x_min``). Raises :class:`SimulationError`
@@ -206,9 +226,10 @@ class HydroMuscle(SimulatedRig):
     effects: tuple[Effect, ...] = ()
     connected: bool = True
     x0: float | None = None
+    valves: OnOffValves | None = None  # None: the rig's proportional valve (params.valve)
 
     name: ClassVar[str] = "Hydro Muscle"
-    inputs: ClassVar[tuple[str, ...]] = ("P_cmd", "held")
+    inputs: ClassVar[tuple[str, ...]] = ("P_cmd", "held", "valve")
     signals: ClassVar[Mapping[str, str]] = SIGNALS
     first_sample: ClassVar[int] = 1  # the state at the end of each interval
     finite: ClassVar[tuple[str, ...]] = ("x", "v", "P", "F_m")
@@ -220,6 +241,7 @@ class HydroMuscle(SimulatedRig):
         P_cmd = np.asarray(inputs["P_cmd"], dtype=float)
         held = inputs.get("held")
         held = np.zeros(len(P_cmd), dtype=bool) if held is None else np.asarray(held, dtype=bool)
+        command = np.asarray(inputs.get("valve", np.zeros(len(P_cmd))), dtype=float)
         x0 = self.x0
         if x0 is None:
             x0 = equilibrium(rig, float(P_cmd[0]), effects) if self.connected else rig.x_min
@@ -228,8 +250,13 @@ class HydroMuscle(SimulatedRig):
             jnp.float64(P_cmd[0]), jnp.bool_(True),
         )  # fmt: skip
         dt = 1.0 / (rate * substeps)
-        params = (_constants(rig, self.connected), effects, dt)
-        return params, init, (jnp.asarray(P_cmd), jnp.asarray(held))
+        valve = None
+        if self.valves is not None:
+            v = self.valves
+            valve = _OnOff(v.supply, v.opening_time, v.closing_time, v.line_tau)
+            init = (*init, (jnp.float64(0.0), jnp.float64(0.0)))  # both valves shut
+        params = (_constants(rig, self.connected), effects, dt, valve)
+        return params, init, (jnp.asarray(P_cmd), jnp.asarray(held), jnp.asarray(command))
 
     def trajectory(self, t, rate, inputs, out):
         slack = np.flatnonzero(out["tension_min"] < 0)

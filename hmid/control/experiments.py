@@ -1,0 +1,104 @@
+"""One tracking experiment: a plant, a controller, a reference -> the run and its scores.
+
+The controllers (:mod:`hmid.control.controllers`) are named by what their feed-forward is:
+
+* ``PD``: the PD set-point tracker with its operating point's pressure;
+* ``FF+PD``: the identified model's inverse dynamics plus the same PD;
+* ``FF``: the inverse dynamics alone (no feedback: the perfect-model check).
+
+A run simulates the plant's rig under the tracker in one compiled scan
+(:func:`hmid.simulate.rig.closed_loop`); the sensor noise is drawn from an explicit seed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import jax.numpy as jnp
+import numpy as np
+
+from hmid.control.controllers import PD, Tracker
+from hmid.control.inverse import ForceLaw
+from hmid.control.metrics import Metrics, score
+from hmid.control.plant import Plant
+from hmid.control.references import Reference
+from hmid.control.tuning import Tuning
+from hmid.simulate.rig import closed_loop
+
+Controller = Literal["PD", "FF+PD", "FF"]
+CONTROLLERS: tuple[Controller, ...] = ("PD", "FF+PD", "FF")
+
+
+@dataclass(frozen=True)
+class Tracking:
+    """A closed-loop run: the output (truth) and the reference at the instants ``t``, the
+    model's demanded pressure (at ``t``) and the controller's effort (Pa, per command), the
+    pressure, the on/off
+    valves' commands (None for a proportional valve), and the scores."""
+
+    controller: Controller
+    reference: Reference
+    t: np.ndarray
+    output: np.ndarray
+    demand: np.ndarray
+    effort: np.ndarray
+    pressure: np.ndarray
+    valve: np.ndarray | None
+    metrics: Metrics
+
+
+def tracker(plant: Plant, tuning: Tuning, controller: Controller = "FF+PD") -> Tracker:
+    """The tracker of ``plant`` with the tuned gains (arrays: new gains do not recompile)."""
+    pd = PD(*(jnp.asarray(v, dtype=float) for v in (tuning.kp, tuning.kd, tuning.tf,
+                                                       tuning.dt)))  # fmt: skip
+    return Tracker(pd, plant.tracked, jnp.asarray(plant.resolution), plant.actuation,
+                   jnp.asarray(0.0 if controller == "FF" else 1.0))  # fmt: skip
+
+
+@dataclass(frozen=True)
+class FeedForward:
+    """The effort per command (one fewer than the reference's samples), the pressure the
+    model demands at every sample of the reference, and the pressure the rig starts at, at rest
+    (the one that holds the reference's start, by the model)."""
+
+    commands: np.ndarray
+    demand: np.ndarray
+    start: float
+
+
+def feedforward(
+    plant: Plant, law: ForceLaw, ref: Reference, controller: Controller, valve_tau: float
+) -> FeedForward:
+    """The feed-forward of ``controller``: the hold pressure for PD alone, the model's inverse
+    dynamics otherwise."""
+    start = plant.hold(law, ref)
+    if controller == "PD":
+        return FeedForward(np.full(len(ref.t) - 1, start), np.full(len(ref.t), start), start)
+    return FeedForward(plant.feedforward(law, ref, valve_tau), plant.demand(law, ref), start)
+
+
+def track(
+    plant: Plant,
+    tuning: Tuning,
+    ff: FeedForward,
+    ref: Reference,
+    controller: Controller,
+    seed: int = 0,
+) -> Tracking:
+    """Run ``plant`` under ``controller`` with the feed-forward ``ff`` along ``ref`` (sampled
+    at the plant's rate; command k acts from ref.t[k] to ref.t[k + 1])."""
+    n = len(ref.t) - 1
+    noise = plant.noise * np.random.default_rng(seed).standard_normal(n)
+    references = {"r": ref.y[:-1], "ff": ff.commands, "noise": noise}
+    traj, commands = closed_loop(
+        plant.rig(), tracker(plant, tuning, controller), references, plant.rate,
+        initial_inputs=plant.inputs(n, ff.start), initial_outputs=plant.outputs(ff.start),
+    )  # fmt: skip
+    output = getattr(traj, plant.tracked)
+    valve = commands.get("valve")
+    effort = commands.get("P_cmd", ff.commands)
+    metrics = score(ref, traj.t, output, plant.resolution, valve)
+    pressure = traj.signals.get("P", np.full(n, np.nan))
+    return Tracking(controller, ref, traj.t, output, ff.demand[1:], effort, pressure, valve,
+                    metrics)  # fmt: skip

@@ -1,0 +1,141 @@
+"""The control study of a config: tune, track every reference with every controller and valve,
+and shake the plant; typed results for the report (:mod:`pipelines.control` writes them).
+
+Per task (force, position) the PD is tuned once on the model's linearisation at the first
+reference's start and keeps its gains for every reference, valve and plant: PD alone and
+feed-forward + PD run at the same gains. With on/off valves the same PD's effort is switched
+on the valves (:mod:`hmid.control.actuation`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from hmid.control.actuation import PWM, Switching
+from hmid.control.config import ControlConfig
+from hmid.control.experiments import Controller, FeedForward, Tracking, feedforward, track
+from hmid.control.inverse import ForceLaw
+from hmid.control.plant import MuscleRig
+from hmid.control.references import Reference, reference
+from hmid.control.robustness import Spread, posterior_muscles
+from hmid.control.tuning import Tuning, tune
+from hmid.errors import SimulationError
+from hmid.simulate.effects import make_effect
+from hmid.simulate.params import Sensors
+
+
+@dataclass(frozen=True)
+class TaskResult:
+    """One task: its plant, tuning, and runs by (reference kind, valves, controller)."""
+
+    task: str
+    unit: str
+    resolution: float
+    plant: MuscleRig
+    tuning: Tuning
+    gain: float  # the linearised plant's static gain (tracked unit per Pa)
+    runs: dict[tuple[str, str, Controller], Tracking]
+    spreads: dict[str, list[Spread]]  # reference kind -> robustness cases
+
+    def reduction(self, kind: str, valves: str) -> float:
+        """1 - RMSE(FF+PD) / RMSE(PD) (the issue's target: >= 0.5)."""
+        pd = self.runs[(kind, valves, "PD")].metrics.rmse
+        return 1.0 - self.runs[(kind, valves, "FF+PD")].metrics.rmse / pd
+
+
+@dataclass(frozen=True)
+class Study:
+    model: str
+    tasks: tuple[TaskResult, ...]
+    valves: tuple[str, ...]  # "proportional", and "on/off (switching)" where configured
+
+
+def plants(config: ControlConfig) -> dict[str, MuscleRig]:
+    """The configured tasks' plants, with the proportional valve."""
+    sensors = Sensors()
+    out = {}
+    if config.tasks.force is not None:
+        noise = sensors.F.noise if config.noise else 0.0
+        out["force"] = MuscleRig(config.rig, "force", hold_at=config.tasks.force.hold_at,
+                                 rate=config.rate, noise=noise)  # fmt: skip
+    if config.tasks.position is not None:
+        noise = sensors.x.noise if config.noise else 0.0
+        out["position"] = MuscleRig(config.rig, "position", rate=config.rate, noise=noise)
+    return out
+
+
+def references(config: ControlConfig, task: str) -> dict[str, Reference]:
+    section = getattr(config.tasks, task)
+    t = np.arange(0, round(config.duration * config.rate) + 1) / config.rate
+    return {
+        kind: reference(kind, t, section.low, section.high, step_at=config.step_at,
+                        transition=config.transition, frequency=config.frequency)
+        for kind in config.references
+    }  # fmt: skip
+
+
+def on_off(plant: MuscleRig, config: ControlConfig) -> MuscleRig:
+    section = config.on_off
+    assert section is not None
+    actuation = (
+        Switching(band=section.band)
+        if section.realisation == "switching"
+        else PWM(period=section.period, span=section.span)
+    )
+    return replace(plant, valves=section.valves, actuation=actuation)
+
+
+def _rmse(plant: MuscleRig, tuning: Tuning, ff: FeedForward, ref: Reference, seed: int) -> float:
+    """FF+PD's RMSE on a perturbed plant; infinite where the run breaks the rig's physics (the
+    string goes slack): the controller failed there."""
+    try:
+        return track(plant, tuning, ff, ref, "FF+PD", seed).metrics.rmse
+    except SimulationError:
+        return float("inf")
+
+
+def run_study(config: ControlConfig, model, progress: Callable[[str], None] | None = None) -> Study:
+    """Every task of ``config`` with the loaded ``model`` (:class:`hmid.Model`)."""
+    law = ForceLaw.of(model)
+    ctl = config.controller
+    muscles = posterior_muscles(model, config.robustness.draws, config.seed)
+    effects = [make_effect(spec) for spec in config.robustness.effects]
+    valves = ["proportional"]
+    if config.on_off is not None:
+        valves.append(f"on/off ({config.on_off.realisation})")
+    results = []
+    for seed, (task, plant) in enumerate(plants(config).items()):
+        refs = references(config, task)
+        first = next(iter(refs.values()))
+        linear = plant.linear(law, first, ctl.valve_tau)
+        tuning = tune(linear, 1.0 / config.rate,
+                      gain_margin_db=ctl.gain_margin_db, phase_margin_deg=ctl.phase_margin_deg,
+                      tf=ctl.derivative_filter_s)  # fmt: skip
+        runs: dict[tuple[str, str, Controller], Tracking] = {}
+        spreads: dict[str, list[Spread]] = {}
+        for kind, ref in refs.items():
+            if progress:
+                progress(f"{task}: {kind}")
+            for name in valves:
+                target = plant if name == "proportional" else on_off(plant, config)
+                for controller in ("PD", "FF+PD"):
+                    ff = feedforward(target, law, ref, controller, ctl.valve_tau)
+                    runs[(kind, name, controller)] = track(target, tuning, ff, ref, controller,
+                                                           seed)  # fmt: skip
+            nominal = runs[(kind, "proportional", "FF+PD")].metrics.rmse
+            ff = feedforward(plant, law, ref, "FF+PD", ctl.valve_tau)
+            cases = []
+            if muscles:
+                rmse = [_rmse(plant.with_muscle(m), tuning, ff, ref, seed) for m in muscles]
+                cases.append(Spread(f"posterior ({len(muscles)} draws)", nominal, np.array(rmse)))
+            for effect in effects:
+                rmse_e = _rmse(plant.with_effects((effect,)), tuning, ff, ref, seed)
+                cases.append(Spread(effect.kind, nominal, np.array([rmse_e])))
+            spreads[kind] = cases
+        gain = float(np.squeeze(linear.dcgain()))
+        results.append(TaskResult(task, plant.unit, plant.resolution, plant, tuning, gain, runs,
+                                  spreads))  # fmt: skip
+    return Study(model.name, tuple(results), tuple(valves))

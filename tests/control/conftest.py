@@ -1,0 +1,52 @@
+"""A finished identification run whose models the control tests load: a small simulated data
+set of the Ch. 4 rig (a sine, a chirp, two free falls), the SLS fitted, once per session."""
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from hmid.config import load_yaml_model
+from hmid.simulate.rigs.hydro_muscle_dataset import HydroMuscleDataset
+from hmid.simulate.write import write_dataset
+
+ROOT = Path(__file__).resolve().parents[2]
+DATASET = """
+seed: 33
+logs:
+  - {name: sine, kind: dynamic, duration: 8,
+     profile: {kind: sine, offset: 140000, amplitude: 100000, frequency: 0.5}}
+  - {name: chirp, kind: dynamic, duration: 8,
+     profile: {kind: chirp, offset: 140000, amplitude: 80000, f0: 0.1, f1: 2.0}}
+  - {name: ff1, kind: free_fall, duration: 0.3, x0: 0.15}
+  - {name: ff2, kind: free_fall, duration: 0.3, x0: 0.17}
+"""
+
+
+@pytest.fixture(scope="session")
+def identified(tmp_path_factory) -> Path:
+    """The experiment folder (results/<name>) of a complete run with an SLS model file."""
+    from pipelines.identify import run
+
+    root = tmp_path_factory.mktemp("control-models")
+    (root / "set.yaml").write_text(DATASET)
+    write_dataset(load_yaml_model(root / "set.yaml", HydroMuscleDataset), root / "data")
+    config = {
+        "name": "muscle",
+        "seed": 3,
+        "rig": yaml.safe_load((ROOT / "configs/demo.yaml").read_text())["rig"],
+        "logs": [
+            {"path": "data/sine.csv", "columns": "data/columns-dynamic.yaml", "role": "dynamic"},
+            {"path": "data/chirp.csv", "columns": "data/columns-dynamic.yaml", "role": "dynamic"},
+            {"path": "data/ff1.csv", "columns": "data/columns-free_fall.yaml", "role": "free_fall"},
+            {"path": "data/ff2.csv", "columns": "data/columns-free_fall.yaml", "role": "free_fall"},
+        ],
+        "split": {"kind": "time_block", "validation_fraction": 0.25},
+        "models": [
+            {"family": "sls", "stride": 4},
+            {"family": "polynomial", "variants": ["cubic_xv"]},
+        ],
+    }
+    (root / "exp.yaml").write_text(yaml.safe_dump(config))
+    folder, _ = run(root / "exp.yaml", results=root / "results")
+    return folder.parent

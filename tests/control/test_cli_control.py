@@ -1,0 +1,68 @@
+"""``hmid control`` end to end on the shipped config (a short version of it), on the models a
+finished identification run exported; its one-line errors."""
+
+import json
+from pathlib import Path
+
+import pandas as pd
+import yaml
+
+from hmid.cli import main
+
+SHIPPED = Path(__file__).resolve().parents[2] / "configs/control/muscle.yaml"
+
+
+def _config(tmp_path: Path, **changes) -> Path:
+    config = yaml.safe_load(SHIPPED.read_text()) | changes
+    path = tmp_path / "control.yaml"
+    path.write_text(yaml.safe_dump(config))
+    return path
+
+
+def test_the_shipped_config_runs_and_writes_its_report(identified, tmp_path, capsys):
+    short = {
+        "duration": 2.0,
+        "step_at": 0.5,
+        "references": ["step_up", "sine"],
+        "robustness": {"draws": 3, "effects": [{"kind": "muscle_damping", "c": 3.0}]},
+    }
+    config = _config(tmp_path, model={"run": str(identified), "name": "sls"}, **short)
+    results = tmp_path / "results"
+    assert main(["control", str(config), "--results", str(results), "--quiet"]) == 0
+    (run_dir,) = (tmp_path / "results" / "control-muscle").iterdir()
+    for name in ("report.md", "report.html", "metrics.json", "manifest.json", "config.yaml"):
+        assert (run_dir / name).is_file(), name
+    manifest = json.loads((run_dir / "manifest.json").read_text())
+    assert manifest["status"] == "complete"
+    hashed = manifest["inputs_sha256"]
+    assert any(p.endswith("sls.json") for p in hashed)
+    assert any(p.endswith("sls.posterior.nc") for p in hashed)  # the draws it used
+    targets = pd.read_csv(run_dir / "tables" / "targets.csv")
+    assert len(targets) == 2 * 2 * 2  # tasks x references x valves
+    proportional = targets[targets["valves"] == "proportional"]
+    assert (proportional["reduction"] >= 0.5).all()
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    assert metrics["targets"]["reduction_met_proportional"] is True
+    assert {p.name for p in (run_dir / "figures").iterdir()} >= {"position_proportional.png"}
+    assert "report:" in capsys.readouterr().out
+
+
+def test_a_missing_model_run_says_to_run_the_demo_first(tmp_path, capsys):
+    config = _config(tmp_path, model={"run": str(tmp_path / "nothing"), "name": "sls"})
+    assert main(["control", str(config), "--results", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "make demo" in err and len(err.splitlines()) == 1
+
+
+def test_an_unknown_key_is_named(tmp_path, capsys):
+    config = _config(tmp_path, controler={"gain_margin_db": 6})
+    assert main(["control", str(config), "--results", str(tmp_path / "r")]) == 2
+    assert "controler" in capsys.readouterr().err
+
+
+def test_a_model_without_pressure_is_one_line(identified, tmp_path, capsys):
+    config = _config(tmp_path, model={"run": str(identified), "name": "poly:cubic_xv"},
+                     duration=1.5, step_at=0.5, references=["step_up"],
+                     robustness={"draws": 0})  # fmt: skip
+    assert main(["control", str(config), "--results", str(tmp_path / "r"), "--quiet"]) == 2
+    assert "no term in P" in capsys.readouterr().err
