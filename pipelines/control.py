@@ -7,17 +7,14 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
-
+import hmid
 from hmid.control.config import ControlConfig, load_control_config
 from hmid.control.inverse import ForceLaw
-from hmid.control.study import Study, TaskResult, run_study
+from hmid.control.report import figures, report, tables
+from hmid.control.study import Study, run_study
 from hmid.files import write_json
-from hmid.report import Figure, Report, Section, Table, write_report
+from hmid.report import write_report
 from hmid.runs import config_json, open_run
-
-REDUCTION, ROBUST = 0.5, 1.5  # the issue's targets
 
 
 def run(
@@ -27,8 +24,6 @@ def run(
     progress: Callable[[str], None] | None = None,
 ) -> tuple[Path, dict]:
     """Run the control study of ``config_path``; returns the run folder and its metrics."""
-    import hmid
-
     config = load_control_config(config_path)
     folder_of_run = config.run_folder()
     model = hmid.load_run(folder_of_run).models.get(config.model.name)
@@ -48,54 +43,10 @@ def run(
             study = run_study(config, model, progress)
         with folder.manifest.stage("report"):
             metrics = _write(study, config, folder.path, model.path)
-            report = _report(study, config, folder.path, metrics, folder.provenance())
-            write_report(report, folder.path)
+            document = report(study, config, folder.path, metrics, folder.provenance())
+            write_report(document, folder.path)
             write_json(folder.path / "metrics.json", metrics)
         return folder.path, metrics
-
-
-def tables(study: Study) -> dict[str, pd.DataFrame]:
-    """The study's tables by file name."""
-    tuning, tracking, targets, robust = [], [], [], []
-    for task in study.tasks:
-        tn = task.tuning
-        tuning.append({"task": task.task, "kp (Pa/unit)": tn.kp, "kd (Pa s/unit)": tn.kd,
-                       "tf (s)": tn.tf, "crossover (Hz)": tn.crossover_hz,
-                       "gain margin (dB)": tn.gain_margin_db,
-                       "phase margin (deg)": tn.phase_margin_deg,
-                       "slowest pole (s)": tn.slowest_pole_s, "stable": tn.stable})  # fmt: skip
-        for (kind, valves, controller), run in task.runs.items():
-            m = run.metrics
-            tracking.append({"task": task.task, "reference": kind, "valves": valves,
-                             "controller": controller, "rmse": m.rmse,
-                             "max error": m.max_error, "unit": task.unit,
-                             "settling (s)": m.settling_s,
-                             "switchings": m.switchings})  # fmt: skip
-        kinds = sorted({k for k, _, _ in task.runs}, key=list(task.spreads).index)
-        for kind in kinds:
-            for valves in study.valves:
-                pd_, ff = (task.runs[(kind, valves, c)].metrics.rmse for c in ("PD", "FF+PD"))
-                cut = task.reduction(kind, valves)
-                targets.append({"task": task.task, "reference": kind, "valves": valves,
-                                "PD rmse": pd_,
-                                "FF+PD rmse": ff, "unit": task.unit, "reduction": cut,
-                                "met (>= 50 %)": bool(cut >= REDUCTION)})  # fmt: skip
-            for spread in task.spreads[kind]:
-                robust.append({"task": task.task, "reference": kind, "plant": spread.case,
-                               "nominal rmse": spread.nominal_rmse,
-                               "worst rmse": float(np.max(spread.rmse)), "unit": task.unit,
-                               "median ratio": spread.median, "worst ratio": spread.worst,
-                               "met (<= 1.5x)": bool(spread.worst <= ROBUST)})  # fmt: skip
-    return {"tuning": pd.DataFrame(tuning), "tracking": pd.DataFrame(tracking),
-            "targets": pd.DataFrame(targets), "robustness": pd.DataFrame(robust)}  # fmt: skip
-
-
-def ripple(task: TaskResult, valves: str) -> float:
-    """RMS of the pressure about the model's demand (the feed-forward) over the FF+PD runs on
-    ``valves`` (Pa): what the valves add to the force the model asked for."""
-    runs = [r for (_, v, c), r in task.runs.items() if v == valves and c == "FF+PD"]
-    gap = np.concatenate([r.pressure - r.demand for r in runs])
-    return float(np.sqrt(np.mean(gap**2)))
 
 
 def _write(study: Study, config: ControlConfig, run_dir: Path, model_path: Path) -> dict:
@@ -104,7 +55,7 @@ def _write(study: Study, config: ControlConfig, run_dir: Path, model_path: Path)
         path = run_dir / "tables" / f"{name}.csv"
         path.parent.mkdir(parents=True, exist_ok=True)
         frame.to_csv(path, index=False)
-    _figures(study, run_dir)
+    figures(study, run_dir)
     targets, robust = frames["targets"], frames["robustness"]
     proportional = targets[targets["valves"] == "proportional"]
     return {
@@ -118,135 +69,3 @@ def _write(study: Study, config: ControlConfig, run_dir: Path, model_path: Path)
         },
         "tables": {name: frame.to_dict(orient="records") for name, frame in frames.items()},
     }
-
-
-def _figures(study: Study, run_dir: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    for task in study.tasks:
-        for valves in study.valves:
-            kinds = list(task.spreads)
-            fig, axes = plt.subplots(len(kinds), 1, figsize=(7, 1.9 * len(kinds)), sharex=True,
-                                     squeeze=False)  # fmt: skip
-            scale = 1e3 if task.unit == "m" else 1.0
-            unit = "mm" if task.unit == "m" else task.unit
-            for ax, kind in zip(axes[:, 0], kinds, strict=True):
-                ref = task.runs[(kind, valves, "PD")].reference
-                ax.plot(ref.t, ref.y * scale, "k--", lw=1, label="reference")
-                for controller, colour in (("PD", "tab:orange"), ("FF+PD", "tab:blue")):
-                    r = task.runs[(kind, valves, controller)]
-                    ax.plot(r.t, r.output * scale, color=colour, lw=1, label=controller)
-                ax.set_ylabel(f"{kind}\n{task.task} ({unit})")
-            axes[0, 0].legend(loc="upper right", fontsize=7, ncol=3)
-            axes[-1, 0].set_xlabel("t (s)")
-            fig.tight_layout()
-            name = "proportional" if valves == "proportional" else "on_off"
-            fig.savefig(_figure_dir(run_dir) / f"{task.task}_{name}.png", dpi=90)
-            plt.close(fig)
-
-
-def _figure_dir(run_dir: Path) -> Path:
-    (run_dir / "figures").mkdir(parents=True, exist_ok=True)
-    return run_dir / "figures"
-
-
-def _report(
-    study: Study, config: ControlConfig, run_dir: Path, metrics: dict, provenance: dict
-) -> Report:
-    frames = tables(study)
-    targets = metrics["targets"]
-    sections = [
-        Section(
-            "PD tuning",
-            (
-                "The rule (hmid/control/tuning.py): the stiffest PD whose sampled loop on the "
-                "model's linearisation (valve lag included, friction left out) is stable with at "
-                f"least {config.controller.gain_margin_db} dB gain and "
-                f"{config.controller.phase_margin_deg} deg phase margin; margins and poles by "
-                "python-control. On the position task the hanging mass on the muscle's spring "
-                "is a resonance of about 12 Hz damped by 1 %, behind the valve's 30 ms lag: no "
-                "PD stiffens that loop much (the rule's loop gain stays below 0.1), so PD alone "
-                "barely moves the block and the feed-forward does the tracking."
-            ),
-            tables=(Table(frames["tuning"], "PD gains and python-control's margins"),),
-        ),
-        Section(
-            "PD alone vs model-based feed-forward + PD (same gains)",
-            (
-                "RMSE of the logged output against the reference; reduction = 1 - FF+PD / PD "
-                "(target >= 50 %). Sensor resolution 0.02 mm and 0.01 N."
-            ),
-            tables=(
-                Table(frames["targets"], "Tracking RMSE per task"),
-                Table(frames["tracking"], "Every run", collapsed=True),
-            ),
-            figures=tuple(
-                Figure(p, p.stem.replace("_", ", "))
-                for p in sorted((run_dir / "figures").glob("*.png"))
-            ),
-        ),
-        Section(
-            "Robustness",
-            (
-                "The nominal model's controller on plants it was not designed for: muscles drawn "
-                "from the model's posterior, and undeclared effects switched on (each alone). "
-                "Target: RMSE <= 1.5x the nominal plant's."
-            ),
-            tables=(Table(frames["robustness"], "RMSE ratio to the nominal plant"),),
-        ),
-    ]
-    if len(study.valves) > 1:
-        rows = []
-        for task in study.tasks:
-            on_off = [r for (_, v, c), r in task.runs.items() if v == study.valves[1]
-                      and c == "FF+PD"]  # fmt: skip
-            seconds = sum(float(r.t[-1] - r.t[0]) for r in on_off)
-            rmse = {
-                v: float(
-                    np.mean(
-                        [
-                            r.metrics.rmse
-                            for (_, w, c), r in task.runs.items()
-                            if w == v and c == "FF+PD"
-                        ]
-                    )
-                )
-                for v in study.valves
-            }
-            ripples = {v: ripple(task, v) for v in study.valves}
-            rows.append({"task": task.task, "unit": task.unit,
-                         "FF+PD rmse, proportional": rmse["proportional"],
-                         "FF+PD rmse, on/off": rmse[study.valves[1]],
-                         "P about the demand, proportional (Pa rms)": ripples["proportional"],
-                         "P about the demand, on/off (Pa rms)": ripples[study.valves[1]],
-                         "on/off ripple x static gain": ripples[study.valves[1]] * abs(task.gain),
-                         "switchings per s": sum(r.metrics.switchings or 0 for r in on_off)
-                         / seconds})  # fmt: skip
-        sections.insert(2, Section("Why on/off valves miss", (
-            "A solenoid valve is open or shut and takes "
-            f"{config.on_off.valves.opening_time * 1e3:.0f} ms to open and "
-            f"{config.on_off.valves.closing_time * 1e3:.0f} ms to close (config.on_off), so the "
-            "pressure overshoots at every switching and cycles about the pressure the model "
-            "demands. That ripple, through the plant's static gain, is an error no "
-            "feed-forward removes: where it is larger than PD alone's error, the model's "
-            "feed-forward has nothing left to win, and the target is met with proportional "
-            "valves (thesis §8)."
-        ) if config.on_off else "", tables=(Table(pd.DataFrame(rows), "Pressure ripple on "
-                                                  "on/off valves"),)))  # fmt: skip
-    said = {True: "met", False: "not met", None: "n/a"}
-    lead = (
-        f"Model {study.model}: feed-forward + PD lowers PD alone's RMSE by >= 50 % on every "
-        f"task with proportional valves: {said[targets['reduction_met_proportional']]}; with "
-        f"on/off valves: {said[targets['reduction_met_on_off']]}; robustness (<= 1.5x): "
-        f"{said[targets['robustness_met']]}."
-    )
-    return Report(
-        f"Control study: {config.name}",
-        sections=tuple(sections),
-        lead=lead,
-        summary=(("model", study.model), ("valves", ", ".join(study.valves))),
-        provenance=provenance,
-    )

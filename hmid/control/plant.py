@@ -28,7 +28,7 @@ from hmid.control.references import Reference
 from hmid.simulate.effects import Effect
 from hmid.simulate.params import MuscleParams, RigParams, Sensors
 from hmid.simulate.rig import SimulatedRig
-from hmid.simulate.rigs.hydro_muscle import HydroMuscle, _reading
+from hmid.simulate.rigs.hydro_muscle import HydroMuscle
 from hmid.simulate.valves import OnOffValves
 
 
@@ -76,8 +76,6 @@ class Plant(Protocol):
 
 
 #: The Ch. 4 rig's outputs (what the controller may read) before the first sample
-_OUT0 = {"P": 0.0, "x": 0.0, "v": 0.0, "a": 0.0, "F_m": 0.0, "friction": 0.0, "q": 0.0,
-         "stuck": True, "contact": False, "tension_min": 0.0}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -122,13 +120,7 @@ class MuscleRig:
 
     def outputs(self, effort0: float) -> dict[str, float]:
         """What the controller reads before the first sample: the rig at rest at the start."""
-        import jax
-
-        with jax.enable_x64(True):
-            params, init, _ = self.rig().prepare(self.inputs(2, effort0), self.rate, 1)
-            c, effects, _, _ = params
-            _, _, F_m = _reading(c, effects, init)
-        return _OUT0 | {"P": float(effort0), "x": float(init[1]), "F_m": float(F_m)}
+        return self.rig().at_start(self.inputs(2, effort0), self.rate)
 
     def demand(self, law: ForceLaw, ref: Reference) -> np.ndarray:
         """The pressure the model says the reference needs, at the sample instants (the

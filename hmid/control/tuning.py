@@ -46,6 +46,8 @@ class Tuning:
     phase_margin_deg: float  # achieved
     gain_margin_db: float
     poles: np.ndarray  # of the discrete closed loop (z-plane)
+    resonance_hz: float  # the plant's least-damped oscillatory mode (NaN: none)
+    resonance_damping: float  # its damping ratio
 
     @property
     def stable(self) -> bool:
@@ -174,4 +176,17 @@ def _report(plant: Any, kp: float, kd: float, tf: float, dt: float) -> Tuning:
     poles = np.asarray(control.feedback(loop, 1).poles())
     gm_db = float(20 * np.log10(gm)) if np.isfinite(gm) and gm > 0 else float("inf")
     crossover = float(wc / (2 * np.pi)) if np.isfinite(wc) else float("nan")
-    return Tuning(kp, kd, tf, dt, crossover, float(pm), gm_db, poles)
+    return Tuning(kp, kd, tf, dt, crossover, float(pm), gm_db, poles, *resonance(plant))
+
+
+def resonance(plant: Any) -> tuple[float, float]:
+    """(frequency in Hz, damping ratio) of the continuous plant's least-damped oscillatory
+    mode, from python-control's ``damp``; (NaN, NaN) where every mode is real."""
+    import control
+
+    wn, zeta, poles = control.damp(control.ss(plant), doprint=False)
+    oscillatory = np.abs(np.imag(poles)) > 1e-9
+    if not oscillatory.any():
+        return float("nan"), float("nan")
+    i = np.flatnonzero(oscillatory)[np.argmin(zeta[oscillatory])]
+    return float(wn[i] / (2 * np.pi)), float(zeta[i])

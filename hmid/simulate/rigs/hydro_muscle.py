@@ -258,6 +258,20 @@ class HydroMuscle(SimulatedRig):
         params = (_constants(rig, self.connected), effects, dt, valve)
         return params, init, (jnp.asarray(P_cmd), jnp.asarray(held), jnp.asarray(command))
 
+    def at_start(self, inputs: Mapping[str, np.ndarray], rate: float) -> dict[str, float]:
+        """The outputs a sample would log for the initial state: what a controller reads before
+        the first sample of a closed loop (:func:`~hmid.simulate.rig.closed_loop`)."""
+        with jax.enable_x64(True):
+            params, init, _ = self.prepare(inputs, rate, 1)
+            a, friction, F_m = _reading(params[0], params[1], init)
+        _, x, v, q, P, stuck = init[:6]
+        values = {"P": P, "x": x, "v": v, "a": a, "F_m": F_m, "friction": friction, "q": q}
+        return {k: float(v) for k, v in values.items()} | {
+            "stuck": bool(stuck),
+            "contact": False,
+            "tension_min": float(self.params.m1 * self.params.g),
+        }
+
     def trajectory(self, t, rate, inputs, out):
         slack = np.flatnonzero(out["tension_min"] < 0)
         if slack.size:
