@@ -1,7 +1,8 @@
 """The Ch. 6 ankle: its geometry is virtual work, it rests where the torques balance, it keeps
-its energy but for the damping's work, its valves and effects act."""
+its energy but for the damping's work, its valves and effects act, and Ch. 6 follows."""
 
 import math
+from pathlib import Path
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -9,12 +10,15 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
+from hmid.errors import ConfigError
+from hmid.simulate.ankle_ch6 import reproduce_ch6
 from hmid.simulate.effects import make_effect
 from hmid.simulate.rig import closed_loop, integrate
 from hmid.simulate.rigs.ankle import Ankle, equilibrium, geometry, statics
-from hmid.simulate.rigs.ankle_params import AnkleParams
+from hmid.simulate.rigs.ankle_params import AnkleParams, load_ankle_params
 from hmid.simulate.valves import OnOffValves, ProportionalValve
 
+ROOT = Path(__file__).resolve().parents[2]
 RATE = 1000.0
 FRICTIONLESS = AnkleParams(coulomb=0.0)
 MIXED = (4.0e5, 5.0e5, 3.0e5, 4.5e5, 6.0e5)  # a pressure set, a different one per fibre
@@ -167,3 +171,22 @@ def test_bad_inputs_and_params_are_errors():
         AnkleParams(valve=OnOffValves(supply=5e5))
     with pytest.raises(ValidationError, match="the ankle has 8"):
         AnkleParams(fibres=AnkleParams().muscles()[:5])
+
+
+def test_the_shipped_plant_config_is_the_default_plant(tmp_path):
+    assert load_ankle_params(ROOT / "configs/control/ankle-plant.yaml") == AnkleParams()
+    bad = tmp_path / "plant.yaml"
+    bad.write_text("foot_mas: 1.0\n")
+    with pytest.raises(ConfigError, match="key 'foot_mas'"):
+        load_ankle_params(bad)
+
+
+def test_chapter_6_follows_within_its_tolerances():
+    result = reproduce_ch6()
+    table = result.table.frame()
+    assert result.table.all_within, table[~table.within].to_string()
+    follows = set(table.quantity[table.status == "follows"])
+    assert {"ankle torque at full force", "torque per body mass (62 kg)",
+            "stiffness ordering (superset stiffer)", "one more soleus relaxed",
+            "travel time ratio, slower / faster direction"} <= follows  # fmt: skip
+    assert len(result.stiffness) == 11  # (0-2 gastrocnemius) x (0-3 soleus), none empty

@@ -26,10 +26,12 @@ lever from its torque (109 N m over 1,682 N: about 0.065 m at full force); one l
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Annotated
 
 from pydantic import Field, model_validator
 
+from hmid.config import load_yaml_model
 from hmid.simulate.params import MuscleParams, NonNegative, Positive, _Frozen
 from hmid.simulate.specs import MuscleSpec
 from hmid.simulate.valves import OnOffValves, ProportionalValve
@@ -164,3 +166,9 @@ class AnkleParams(_Frozen):
         if self.fibres is not None:
             return self.fibres
         return tuple(g.spec.params() for g in self.groups.values() for _ in range(g.count))
+
+
+def load_ankle_params(path: str | Path) -> AnkleParams:
+    """An ankle plant from YAML (``configs/control/ankle-plant.yaml``); unknown keys and bad
+    values are one-line ConfigErrors naming the key."""
+    return load_yaml_model(path, AnkleParams, "ankle plant config")
