@@ -328,7 +328,8 @@ def plot_ch6(result: Ch6Result, folder: str | Path) -> list[Path]:
     table = result.stiffness.sort_values("stiffness")
     colors = ["tab:orange" if m == LOADS[0] else "tab:blue" for m in table.mass]
     ax.bar(table.engaged, table.stiffness * math.pi / 180, color=colors)
-    ax.set_ylabel("stiffness (N m/deg)")
+    ax.set_yscale("log")
+    ax.set_ylabel("stiffness (N m/deg, log)")
     ax.set_title("Rotational stiffness per engaged rear fibres (orange 9.1 kg, blue 18.1 kg)")
     ax.tick_params(axis="x", labelrotation=45, labelsize=8)
     paths.append(_save(fig, folder / "ch6-stiffness.png"))
