@@ -181,6 +181,7 @@ def test_the_shipped_plant_config_is_the_default_plant(tmp_path):
         load_ankle_params(bad)
 
 
+@pytest.mark.slow  # the five Ch. 6 experiments: ~10 s
 def test_chapter_6_follows_within_its_tolerances():
     result = reproduce_ch6()
     table = result.table.frame()

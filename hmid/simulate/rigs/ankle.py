@@ -24,7 +24,8 @@ Effects (:mod:`hmid.simulate.effects`, never declared to a controller's model): 
 scales every fibre's springs, ``muscle(t, x, v, P)`` adds a force per fibre (along +x),
 ``sliding``/``breakaway`` act at the joint, read as torques (N m) of the angular velocity
 (rad/s), with P the mean pressure of the active fibres. So ``viscous`` is extra joint damping,
-``stribeck`` a breakaway peak, ``stiffness_drift`` a softening latex.
+``stribeck`` a breakaway peak, ``stiffness_drift`` a softening latex. ``sense`` hooks do not
+reach the potentiometer (its reading is made inside the scan, where a controller reads it).
 
 Symplectic (semi-implicit) Euler with ``substeps`` steps per sample, the Maxwell arms and the
 valves advanced exactly over a step; the state logged at the end of each interval.
