@@ -8,6 +8,7 @@ from hmid.simulate.dataset import RigDataset
 from hmid.simulate.datasets import KINDS
 from hmid.simulate.params import RigParams
 from hmid.simulate.rig import SimulatedRig, Trajectory, integrate
+from hmid.simulate.rigs.ankle import Ankle
 from hmid.simulate.rigs.hydro_muscle import HydroMuscle
 from hmid.simulate.rigs.hydro_muscle_dataset import HydroMuscleDataset
 from hmid.simulate.rigs.linear_motor import LinearMotor, LinearMotorParams, PDController
@@ -19,6 +20,10 @@ RIGS = {
     "linear_motor": (
         LinearMotor(LinearMotorParams(), PDController(), encoder_step=1e-6),
         {"r": 1e-3 * np.sin(np.linspace(0.0, 3.0, N)) ** 2},
+    ),
+    "ankle": (
+        Ankle(),
+        {"valves": np.where(np.arange(N) < N // 2, 1.0, -1.0)[:, None] * np.ones(5)},
     ),
 }
 
@@ -38,7 +43,7 @@ def test_the_trajectory_holds_what_the_rig_declares(name):
 def test_a_run_that_leaves_finite_values_is_an_error(name):
     rig, inputs = RIGS[name]
     key = next(iter(inputs))
-    bad = inputs | {key: np.r_[inputs[key][:50], np.full(N - 50, np.nan)]}
+    bad = inputs | {key: np.r_[inputs[key][:50], np.full_like(inputs[key][50:], np.nan, float)]}
     with pytest.raises(SimulationError, match=f"the {rig.name} simulation left finite values"):
         integrate(rig, bad, RATE, substeps=10)
 
