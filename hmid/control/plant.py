@@ -120,7 +120,7 @@ class MuscleRig:
 
     def outputs(self, effort0: float) -> dict[str, float]:
         """What the controller reads before the first sample: the rig at rest at the start."""
-        return self.rig().at_start(self.inputs(2, effort0), self.rate)
+        return self.rig().initial_outputs(self.inputs(2, effort0), self.rate)
 
     def demand(self, law: ForceLaw, ref: Reference) -> np.ndarray:
         """The pressure the model says the reference needs, at the sample instants (the

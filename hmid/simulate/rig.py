@@ -95,6 +95,11 @@ class SimulatedRig(ABC):
     def sample(params: Any, state: Any, inputs: Any, substeps: int) -> tuple[Any, dict]:
         """One sampling interval in JAX: the new state, and the outputs logged for the sample."""
 
+    def initial_outputs(self, inputs: Mapping[str, np.ndarray], rate: float) -> Mapping[str, Any]:
+        """What a sample would log for the initial state: what :func:`closed_loop`'s controller
+        reads before the first sample. A rig that runs in a closed loop implements it."""
+        raise NotImplementedError(f"the {self.name} rig does not run in a closed loop")
+
     @abstractmethod
     def trajectory(
         self,
@@ -194,7 +199,7 @@ def closed_loop(
     rate: float,
     *,
     initial_inputs: Mapping[str, Any],
-    initial_outputs: Mapping[str, float],
+    initial_outputs: Mapping[str, Any] | None = None,
     substeps: int = 20,
 ) -> tuple[Trajectory, dict[str, np.ndarray]]:
     """Run ``rig`` under ``controller`` at ``rate`` Hz: the trajectory and the commands it gave.
@@ -202,12 +207,15 @@ def closed_loop(
     ``initial_inputs`` are per-sample arrays as :func:`integrate` takes them (the first input
     sets the length and the rig's initial state; inputs the controller does not command keep
     these values); ``initial_outputs`` are what the controller reads before the first sample
-    (the rig's outputs by name, every one the rig's ``sample`` returns). ``references`` is a
+    (the rig's outputs by name, every one the rig's ``sample`` returns; default: the rig's
+    :meth:`~SimulatedRig.initial_outputs`). ``references`` is a
     pytree of NumPy arrays of that length. Compiled once per rig, controller and length: a
     controller's array fields are traced (new gains as arrays do not recompile), its other fields
     are static (equinox's ``filter_jit``).
     """
     inputs = {k: np.asarray(v) for k, v in initial_inputs.items() if v is not None}
+    if initial_outputs is None:
+        initial_outputs = rig.initial_outputs(inputs, rate)
     with jax.enable_x64(True):
         params, init, xs = rig.prepare(inputs, rate, substeps)
         # the rig's numbers traced, as integrate traces them (filter_jit would compile every

@@ -342,9 +342,12 @@ class Ankle(SimulatedRig):
         params = (plant(self.params), valve, tuple(self.effects), 1.0 / (rate * substeps))
         return params, init, (jnp.asarray(command), jnp.asarray(hung), jnp.asarray(held))
 
-    def initial_outputs(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    def initial_outputs(
+        self, inputs: Mapping[str, np.ndarray], rate: float = 1000.0
+    ) -> dict[str, np.ndarray]:
         """The outputs at the initial state: what :func:`~hmid.simulate.rig.closed_loop`'s
-        controller reads before the first sample (``initial_outputs``)."""
+        controller reads before the first sample (the state is at rest: ``rate`` plays no
+        part)."""
         command, hung, _ = self._inputs(inputs)
         with jax.enable_x64(True):
             _, init = self._initial(command, hung)

@@ -258,7 +258,7 @@ class HydroMuscle(SimulatedRig):
         params = (_constants(rig, self.connected), effects, dt, valve)
         return params, init, (jnp.asarray(P_cmd), jnp.asarray(held), jnp.asarray(command))
 
-    def at_start(self, inputs: Mapping[str, np.ndarray], rate: float) -> dict[str, float]:
+    def initial_outputs(self, inputs: Mapping[str, np.ndarray], rate: float) -> dict[str, float]:
         """The outputs a sample would log for the initial state: what a controller reads before
         the first sample of a closed loop (:func:`~hmid.simulate.rig.closed_loop`)."""
         with jax.enable_x64(True):
