@@ -27,6 +27,7 @@ from hmid.population._summary import from_run
 from hmid.population._validate import Muscle, read_dynamic_logs
 from hmid.portable.file import write_model_file
 from hmid.runs import config_json, open_run
+from pipelines.sweep import identify
 
 
 def run(
@@ -42,7 +43,13 @@ def run(
     config = load_population(config_path)
     say = progress or (lambda _message: None)
     identified = identify_muscles(
-        config, Path(results), force=force, workers=workers, scheduler=scheduler, progress=say
+        config,
+        Path(results),
+        identify,
+        force=force,
+        workers=workers,
+        scheduler=scheduler,
+        progress=say,
     )
     inputs = sorted(
         p for m in identified for p in m.data.iterdir() if p.suffix in (".csv", ".yaml")

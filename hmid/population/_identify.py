@@ -15,7 +15,7 @@ from pathlib import Path
 from hmid.errors import HmidError
 from hmid.population._config import PopulationConfig
 from hmid.population._data import ensure_data, experiment_overrides
-from hmid.sweep import SweepConfig, execute, plan_sweep, read_done
+from hmid.sweep import SweepConfig, Work, execute, plan_sweep, read_done
 
 
 @dataclass(frozen=True)
@@ -30,6 +30,7 @@ class Identified:
 def identify_muscles(
     config: PopulationConfig,
     results: Path,
+    work: Work,
     *,
     force: bool = False,
     workers: int | None = None,
@@ -37,9 +38,8 @@ def identify_muscles(
     progress: Callable[[str], None] | None = None,
 ) -> tuple[Identified, ...]:
     """Simulate missing data sets, then identify every muscle (runs finished before are read
-    back); the muscles' run folders in the config's order."""
-    from pipelines.sweep import identify
-
+    back); the muscles' run folders in the config's order. ``work`` runs one identification
+    (:func:`pipelines.sweep.identify`)."""
     folders = ensure_data(config, progress)
     sweep = SweepConfig(
         name=f"{config.name}-muscles",
@@ -57,7 +57,7 @@ def identify_muscles(
     if plan.pending:
         if progress is not None:
             progress(f"identifying {len(plan.pending)} muscle(s)")
-        execute(plan, identify, workers=workers, scheduler=scheduler)
+        execute(plan, work, workers=workers, scheduler=scheduler)
     out = []
     for run, muscle, folder in zip(plan.runs, config.muscles, folders, strict=True):
         assert run.run_id is not None
