@@ -214,7 +214,12 @@ def _population(args: argparse.Namespace) -> int:
     )
     met = metrics["exponents_within_interval"]
     print(f"exponents within their intervals: {met} of {metrics['exponents']}")
-    for key in ("loo_median_specs_over_own", "loo_median_specs_over_one_other", "loo_coverage"):
+    for key in (
+        "loo_median_specs_over_own",
+        "loo_median_specs_over_exact_law",
+        "loo_median_specs_over_one_other",
+        "loo_coverage",
+    ):
         if key in metrics:
             print(f"{key}: {metrics[key]:.3g}")
     print(f"report: {run_dir / 'report.html'}")

@@ -32,7 +32,7 @@ def population_report(
             f"R-hat max {metrics['r_hat_max']:.3f}, bulk ESS min "
             f"{metrics['ess_bulk_min']:.0f} ({verdict})",
         ),
-        ("population fit", f"{fit.wall_s:.1f} s (target ≤ 60 s)"),
+        ("population fit", f"{fit.wall_s:.1f} s wall, {fit.cpu_s:.1f} s CPU (target ≤ 60 s)"),
     ]
     if "loo_median_specs_over_own" in metrics:
         summary += [
@@ -101,7 +101,9 @@ def population_report(
                 "it; held-out force RMSE (the last 30 % of each dynamic log) against (a) its own "
                 "fitted "
                 "model, (b) the population's mean model without specifications, (c) one other "
-                "muscle's model used as is (the thesis's way; median over the others).",
+                "muscle's model used as is (the thesis's way; median over the others), and (d) the "
+                "simulator's exact law without the muscle's manufacturing scatter, the floor of "
+                "any prediction from specifications alone.",
                 tables=tuple(
                     t
                     for t in (

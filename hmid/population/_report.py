@@ -101,6 +101,9 @@ def targets(fit: PopulationFit, exponents: pd.DataFrame, forces, params) -> dict
     if forces is not None and "specs / own" in forces:
         out["loo_median_specs_over_own"] = float(forces["specs / own"].median())
         out["loo_median_specs_over_one_other"] = float(forces["specs / one other"].median())
+        if "exact law, no scatter RMSE [N]" in forces:
+            floor = forces["from specs RMSE [N]"] / forces["exact law, no scatter RMSE [N]"]
+            out["loo_median_specs_over_exact_law"] = float(floor.median())
         out["targets"] = {
             "specs_over_own_max": 2.0,
             "specs_over_one_other_max": 0.3,

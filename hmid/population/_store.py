@@ -33,6 +33,7 @@ def save_fit(folder: Path, fit: PopulationFit, template: dict) -> Path:
             "center": fit.center.tolist(),
             "center_offsets": fit.center_offsets.tolist(),
             "wall_s": fit.wall_s,
+            "cpu_s": fit.cpu_s,
         },
     )
     np.savez_compressed(
@@ -65,5 +66,6 @@ def load_fit(folder: Path) -> tuple[PopulationFit, dict]:
         muscles=np.empty((0, 0, 0)),
         diagnostics=pd.DataFrame(),
         wall_s=float(meta["wall_s"]),
+        cpu_s=float(meta.get("cpu_s", 0.0)),
     )
     return fit, template

@@ -5,7 +5,9 @@ build (90 % predictive intervals, checked against the simulator's truth) and its
 (the last part of each dynamic log, as the per-muscle split holds out) is predicted with the
 predictive median. Three comparisons on the same rows: (a) its own fitted SLS model, (b) the
 population's mean model without specifications (the other muscles' geometric-mean parameters),
-(c) the thesis's way, one other muscle's model used as it is (the median over the others).
+(c) the thesis's way, one other muscle's model used as it is (the median over the others); and,
+where the build's exact law is known (simulated muscles), (d) the law's own parameters without
+the muscle's manufacturing scatter: the floor of any prediction from specifications alone.
 """
 
 from __future__ import annotations
@@ -132,5 +134,11 @@ def leave_one_out(
                 "specs / own": spec / own,
                 "specs / one other": spec / float(np.median(others)),
             }
+            if out.truth is not None:  # simulated: the build's exact law is the simulator's
+                exact = out.spec.params()
+                law = sls_document(
+                    out.model, "law", np.array([getattr(exact, p) for p in PARAMETERS])
+                )
+                row["exact law, no scatter RMSE [N]"] = held_out_rmse(law, out.logs, fraction)
         forces_rows.append(row)
     return pd.DataFrame(forces_rows), pd.DataFrame(param_rows)
