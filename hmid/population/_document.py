@@ -70,9 +70,9 @@ def population_report(
             figures=(
                 Figure(
                     figure,
-                    "Each parameter against each specification: the muscles' "
-                    "own fits (the other specifications' part of the law taken out) "
-                    "and the law's line.",
+                    "Each parameter against each specification: the muscles' parameters in "
+                    "the population fit (the other specifications' part of the law taken "
+                    "out) and the law's line.",
                 ),
             ),
         ),

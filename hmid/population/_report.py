@@ -54,7 +54,7 @@ def muscle_table(fit: PopulationFit, fits, truths) -> pd.DataFrame:
 
 
 def law_figure(fit: PopulationFit, fits, path: Path) -> Path:
-    """Each parameter against each specification, with the law: the muscles' own fits with the
+    """Each parameter against each specification, with the law: the muscles' parameters with the
     other specifications' part of the law taken out (partial residuals), and the law's line."""
     import matplotlib
 
@@ -65,7 +65,9 @@ def law_figure(fit: PopulationFit, fits, path: Path) -> Path:
     Off = np.array([offsets(s) for s in fit.specs]) - fit.center_offsets
     c = np.median(fit.intercept, axis=0)
     e = np.median(fit.exponent, axis=0)
-    means = np.array([f.mean for f in fits]) / fit.scale
+    # each muscle's parameters as the population fit holds them (its own fit, shrunk where it
+    # says little: a long muscle's k3 can be negative on its own)
+    means = np.median(fit.muscles, axis=0) / fit.scale
     fig, axes = plt.subplots(len(PARAMETERS), len(FEATURES), figsize=(10, 14), squeeze=False)
     for k, p in enumerate(PARAMETERS):
         logy = np.log(np.maximum(means[:, k], 1e-12))
