@@ -24,7 +24,7 @@ import pandas as pd
 
 from hmid.population import PARAMETERS, Sampler, identify_muscles, leave_one_out, load_population
 from hmid.population._summary import MuscleFit, from_run
-from hmid.population._validate import Muscle
+from hmid.population._validate import Member
 from pipelines.sweep import identify
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "population" / "muscles.yaml"
@@ -47,7 +47,7 @@ def replicate(config, rel_cov, seed: int, sampler: Sampler) -> tuple[pd.DataFram
         t = np.array([getattr(truth, p) for p in PARAMETERS])
         cov = rel_cov[i] * np.outer(t, t)
         mean = rng.multivariate_normal(t, cov)
-        muscles.append(Muscle(m.name, m.spec(), MuscleFit(m.name, mean, cov, 4000), {}, (), t))
+        muscles.append(Member(m.name, m.spec(), MuscleFit(m.name, mean, cov, 4000), {}, (), t))
     start = time.perf_counter()
     _, params = leave_one_out(tuple(muscles), sampler=sampler, forces=False)
     return params.assign(replicate=seed), (time.perf_counter() - start) / len(muscles)

@@ -24,7 +24,7 @@ from hmid.population._data import truth
 from hmid.population._law import PARAMETERS
 from hmid.population._report import exponent_table, law_figure, muscle_table, targets
 from hmid.population._summary import from_run
-from hmid.population._validate import Muscle, read_dynamic_logs
+from hmid.population._validate import Member, read_dynamic_logs
 from hmid.portable.file import write_model_file
 from hmid.runs import config_json, open_run
 from pipelines.sweep import identify
@@ -88,7 +88,7 @@ def run(
         if config.leave_one_out:
             say("leave one muscle out")
             loo = tuple(
-                Muscle(m.name, spec, f, t, read_dynamic_logs(m.data), tr)
+                Member(m.name, spec, f, t, read_dynamic_logs(m.data), tr)
                 for m, spec, f, t, tr in zip(
                     identified, specs, fits, templates, truths, strict=True
                 )

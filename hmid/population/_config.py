@@ -22,7 +22,7 @@ Paths are relative to the file's folder; unknown keys and bad values are one-lin
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -126,8 +126,3 @@ def load_population(path: str | Path) -> PopulationConfig:
     path = Path(path)
     config = load_yaml_model(path, PopulationConfig, "population config")
     return config.model_copy(update={"base_dir": path.resolve().parent})
-
-
-def muscle_dict(muscle: Muscle) -> dict[str, Any]:
-    """The specifications as a plain mapping (tables, JSON)."""
-    return muscle.spec().model_dump(mode="json")

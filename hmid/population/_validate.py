@@ -26,7 +26,7 @@ from hmid.simulate.specs import MuscleSpec
 
 
 @dataclass(frozen=True)
-class Muscle:
+class Member:
     """What leave-one-out reads of one muscle."""
 
     name: str
@@ -75,7 +75,7 @@ def mean_model(fits) -> np.ndarray:
 
 
 def leave_one_out(
-    muscles: tuple[Muscle, ...],
+    muscles: tuple[Member, ...],
     *,
     priors: Priors | None = None,
     sampler: Sampler | None = None,
