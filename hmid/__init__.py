@@ -15,6 +15,7 @@ from hmid.errors import ConfigError, HmidError, HmidWarning, LogError, SignalErr
 if TYPE_CHECKING:
     from hmid.api import Run, load_run, run
     from hmid.io.log import CANONICAL_UNITS, Log
+    from hmid.population import predict_muscle
     from hmid.portable import Model, load_model
 
 __version__ = "0.1.0"
@@ -33,6 +34,7 @@ __all__ = [
     "__version__",
     "load_model",
     "load_run",
+    "predict_muscle",
     "run",
 ]
 
@@ -45,6 +47,7 @@ _LAZY = {
     "Run": "hmid.api",
     "load_model": "hmid.portable",
     "load_run": "hmid.api",
+    "predict_muscle": "hmid.population",
     "run": "hmid.api",
 }
 

@@ -214,8 +214,33 @@ def _control(args: argparse.Namespace) -> int:
     return 0
 
 
-def _runs(args: argparse.Namespace) -> int:
+def _population(args: argparse.Namespace) -> int:
+    from pipelines.population import run
 
+    say = (lambda _m: None) if args.quiet else (lambda m: print(f"hmid population: {m}"))
+    run_dir, metrics = run(
+        Path(args.config),
+        results=Path(args.results),
+        force=args.force,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        progress=say,
+    )
+    met = metrics["exponents_within_interval"]
+    print(f"exponents within their intervals: {met} of {metrics['exponents']}")
+    for key in (
+        "loo_median_specs_over_own",
+        "loo_median_specs_over_exact_law",
+        "loo_median_specs_over_one_other",
+        "loo_coverage",
+    ):
+        if key in metrics:
+            print(f"{key}: {metrics[key]:.3g}")
+    print(f"report: {run_dir / 'report.html'}")
+    return 0
+
+
+def _runs(args: argparse.Namespace) -> int:
     entries = list_runs(Path(args.root))
     if args.failed or args.remove_failed:
         entries = [e for e in entries if e.status in ("failed", "stale", "no manifest")]
@@ -344,6 +369,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--results", default="results", help="results root folder (default: results)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=_control)
+        "population",
+        help="fit a generic muscle model over muscles of different builds",
+        description="Identify every muscle of a population config (configs/population/) with "
+        "the standard pipeline (a sweep: the muscles in parallel, runs finished before reused), "
+        "fit the hierarchical scaling law from the muscles' specifications to their SLS "
+        "parameters (NumPyro NUTS), predict each build's model (models/<muscle>.predicted.json) "
+        "and leave each muscle out to check the prediction. Writes results/<name>/<run-id>/.",
+    )
+    p.add_argument(
+        "config", type=Path, help="population config, e.g. configs/population/muscles.yaml"
+    )
+    p.add_argument("--results", default="results", help="results root folder (default: results)")
+    p.add_argument("--force", action="store_true", help="identify every muscle again")
+    p.add_argument("--workers", type=int, help="local worker processes (default: the config's)")
+    p.add_argument("--scheduler", help="a Dask scheduler's address for the muscles' runs")
+    p.add_argument("--quiet", action="store_true", help="no progress messages")
+    p.set_defaults(func=_population)
 
     p = sub.add_parser(
         "runs",

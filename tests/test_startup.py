@@ -38,7 +38,9 @@ def test_cli_help_loads_no_heavy_dependency():
     assert _heavy_loaded(code) == []
 
 
-@pytest.mark.parametrize("command", ["simulate", "run", "summary", "sweep", "blind", "runs"])
+@pytest.mark.parametrize(
+    "command", ["simulate", "run", "summary", "sweep", "blind", "runs", "control", "population"]
+)
 def test_each_command_help_loads_no_heavy_dependency(command):
     code = (
         "import contextlib, io\n"
