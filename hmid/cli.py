@@ -369,6 +369,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--results", default="results", help="results root folder (default: results)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=_control)
+
+    p = sub.add_parser(
         "population",
         help="fit a generic muscle model over muscles of different builds",
         description="Identify every muscle of a population config (configs/population/) with "

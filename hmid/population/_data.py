@@ -13,11 +13,13 @@ sweep run per muscle.
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 
 from hmid.population._config import Muscle, PopulationConfig
 from hmid.simulate.params import MuscleParams, RigParams, ValveParams
@@ -118,7 +120,6 @@ def ensure_data(config: PopulationConfig, progress=None) -> list[Path]:
 
 def experiment_overrides(config: PopulationConfig, muscle: Muscle, folder: Path) -> dict:
     """The sweep run that identifies ``muscle``: its logs in place of the template's."""
-    import yaml
 
     index = yaml.safe_load((folder / "index.yaml").read_text(encoding="utf-8"))["logs"]
     role = {"dynamic": "dynamic", "free_fall": "free_fall"}
@@ -135,7 +136,6 @@ def experiment_overrides(config: PopulationConfig, muscle: Muscle, folder: Path)
 
 def truth(folder: Path) -> MuscleParams:
     """A written muscle's true parameters (from any of its logs' truth records)."""
-    import json
 
     record = json.loads(next(iter(sorted(folder.glob("*.truth.json")))).read_text())
     return MuscleParams(**record["rig"]["muscle"])

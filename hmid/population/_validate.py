@@ -17,7 +17,9 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import yaml
 
+from hmid.io import load_column_map, read_log
 from hmid.population._law import ADDITIVE, PARAMETERS
 from hmid.population._model import Engine, Priors, Sampler, fit_population
 from hmid.population._predict import sls_document
@@ -39,9 +41,6 @@ class Member:
 
 def read_dynamic_logs(folder: Path) -> tuple:
     """A written data set's dynamic logs."""
-    import yaml
-
-    from hmid.io import load_column_map, read_log
 
     index = yaml.safe_load((folder / "index.yaml").read_text(encoding="utf-8"))["logs"]
     return tuple(
