@@ -54,8 +54,10 @@ def free_run_section(config, free_runs: dict, units, out, drawing):
         "measured inputs and the measured state at each block's start alone, as a controller "
         "uses the model (diffrax Tsit5, error-controlled; sign(v) regularised as tanh(v / v0) "
         "with v0 the fit's low-speed cut-off). Fit % is MATLAB's NRMSE fit of the position. "
-        + (f"Bands: {'; '.join(bands)}; their coverage of the measured position is the "
-           "band-coverage column." if bands else "")
+        + (f"Bands: {'; '.join(bands)}. The disturbance's scale is calibrated on the training "
+           "blocks (cut to the held-out blocks' length) to the band's level there; the "
+           "band-coverage column is its coverage of the measured held-out position, the check."
+           if bands else "")
     )  # fmt: skip
     skipped = [f"{name}: {run.skipped}" for name, run in free_runs.items() if run.skipped]
     if skipped:
@@ -94,6 +96,7 @@ def free_run_table(free_runs: dict, unit: str, position: str | None) -> pd.DataF
     for name, run in free_runs.items():
         scores = run.scores() if run.runs else {}
         first = min((r.diverged_at for r in run.runs if r.diverged_at is not None), default=None)
+        cal = run.calibration
         rows.append({
             "model": name,
             "free-run blocks": scores.get("free-run blocks", 0),
@@ -102,9 +105,13 @@ def free_run_table(free_runs: dict, unit: str, position: str | None) -> pd.DataF
             f"rmse explained [{unit}]": scores.get("rmse explained", np.nan),
             f"band coverage ({100 * run.level:g} %)" if run.level else "band coverage": scores.get(
                 "band coverage", np.nan),
+            "band coverage (training)": np.nan if cal is None else cal.coverage,
+            "disturbance scale": cal.scale if cal is not None and cal.reachable else np.nan,
             "diverged": scores.get("diverged", 0),
             "first divergence [s]": np.nan if first is None else first,
-            "note": run.skipped or "; ".join(sorted({r.reason for r in run.runs if r.reason})),
+            "note": run.skipped or "; ".join(sorted({r.reason for r in run.runs if r.reason} | (
+                {"band not calibrated: no disturbance scale reaches the level on the training "
+                 "blocks"} if cal is not None and not cal.reachable else set()))),
         })  # fmt: skip
     return pd.DataFrame(rows)
 

@@ -423,6 +423,7 @@ def freerun(config: ExperimentConfig, split: Split, fit: list[Fitted], export: d
     from hmid.portable.freerun import FreeRun, blocks, simulate_signals
 
     spans = blocks(split.signals)
+    training = blocks(split.signals, "train")  # the band's disturbance is calibrated there
     out: dict = {}
     # in this process: models of one shape share one compiled program, and compiling it (seconds)
     # costs more than running every model (tens of milliseconds each)
@@ -436,7 +437,7 @@ def freerun(config: ExperimentConfig, split: Split, fit: list[Fitted], export: d
         draws = posterior_draws() if posterior_draws else None
         out[name] = None  # keeps the models' order
         run = partial(simulate_signals, draws=FREE_RUN_DRAWS, level=FREE_RUN_LEVEL,
-                      seed=config.seed)  # fmt: skip
+                      seed=config.seed, calibration=training)  # fmt: skip
         tasks.submit(run, Model(document, draws=draws), split.signals, spans)
     for run in tasks.results():
         out[run.model] = run.thinned()  # scores of the whole runs; the figure's samples

@@ -95,8 +95,9 @@ def test_an_equation_not_linear_in_the_acceleration_says_why():
 
 
 def test_runs_over_draws_in_one_call_equal_one_run_each():
-    # to the solver's tolerance: a disturbance sampled as white noise has a kink at every sample,
-    # where the vectorised and the single run may choose other steps
+    # to the error-controlled run's accuracy: a disturbance sampled as white noise has a kink at
+    # every sample, which the draws' steps of one sample resolve and the error-controlled run
+    # steps across (measured: 3e-4 of the motion off an rtol-1e-11 run, the draws 5e-9)
     model = _model([MASS, DAMPER, SPRING], [2.0, 3.0, 150.0])
     sim = model.simulator
     t = np.linspace(0.0, 1.0, 501)
@@ -108,7 +109,7 @@ def test_runs_over_draws_in_one_call_equal_one_run_each():
     batch = sim.positions(t, u, 0.01, 0.0, [], draws, noise)
     for row, draw, e in zip(batch, draws, noise, strict=True):
         one = sim.integrate(t, u, 0.01, coefficients=draw, disturbance=e).x
-        assert np.max(np.abs(row - one)) < 1e-3 * np.max(np.abs(one))
+        assert np.max(np.abs(row - one)) < 3e-3 * np.max(np.abs(one))
 
 
 def test_a_rig_that_imposes_its_position_has_no_free_run():

@@ -1,0 +1,145 @@
+"""The rig's balance, with a model's terms in it, read as an equation of motion.
+
+The explained quantity (a force sensor read as ``motion``: mass a + offset; or known parts such
+as m a + m g; or a measured input such as a drive force) equals the sum of the terms. Both sides
+are affine in the acceleration a, which the integrator solves for; the state is x, v and one
+internal state per memory arm (dq/dt = -q/tau + v) and per first-order lag. This module only
+reads the model file's terms into that form (:class:`Equation`) and says, in one line, why a
+balance is not an equation of motion (:class:`NotSimulable`); it imports no JAX, so that a rig
+that imposes its position says so without loading the integrator.
+
+**Stick-slip.** sign(v) is replaced by tanh(v / v0) (``v0``: the fit's low-speed cut-off
+``fit.v_deadband``, 2 mm/s by default): a regularisation, not an event. Below v0 the block
+creeps where the rig would stick; the error this costs is bounded by the stick band (about
+2 Fc / k in position). An event-driven stick phase would need the static friction level, which
+free falls do not measure.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from hmid.balance.kinds import (
+    ChannelTerm,
+    ConstantTerm,
+    CoulombTerm,
+    Grid,
+    LagTerm,
+    MemoryTerm,
+    SmoothCoulombTerm,
+    TermSpec,
+)
+
+
+class NotSimulable(ValueError):
+    """The model's balance is not an equation of motion this integrator runs (one line: why)."""
+
+
+def _fixed(term: TermSpec, value: float | Grid) -> float:
+    """A profiled parameter's value (the exported file holds it in place of the grid)."""
+    if isinstance(value, Grid):
+        raise NotSimulable(f"term {term.name}: a grid, not a value, for its profiled parameter")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class Equation:
+    """The balance as an equation of motion: per term, how to evaluate it on the state.
+
+    ``terms``: (kind, data, coefficient) with kind one of "const", "mono" (powers of x, v and
+    inputs), "accel" (coefficient of a), "tanh" (tanh(v / scale)), "memory" (state index),
+    "lag" (state index, input, T), "delay" (input, d), "friction" (free-fall law Fc + b |v|).
+    ``inputs``: the channels read from the log. ``lhs``: the explained quantity the same way."""
+
+    rhs: tuple
+    lhs: tuple
+    inputs: tuple[str, ...]
+    n_memory: int
+    lags: tuple[tuple[str, float], ...]
+    v0: float
+
+
+def equation(model, v0: float | None = None) -> Equation:
+    """The equation of motion of ``model`` (:class:`~hmid.portable.Model`) on its rig."""
+    rig = model.rig
+    x = rig.position
+    if x is None:
+        raise NotSimulable("the rig declares no position: a free run does not apply")
+    fit = model.document.get("fit") or {}
+    v0 = float(v0 if v0 is not None else max(fit.get("v_deadband", 0.002), 1e-4))
+    units = model.document["units"]
+    inputs: list[str] = []
+    memory: list[float] = []
+    lags: list[tuple[str, float]] = []
+    rhs: list[tuple[str, Any, float]] = []
+
+    def channel(name: str) -> str:
+        if name in (x, "v", "a"):
+            return name
+        if name not in inputs:
+            inputs.append(name)
+        return name
+
+    def term_parts(term, coef: float) -> list:
+        s = term.sign * coef
+        if isinstance(term, ConstantTerm):
+            return [("const", None, s)]
+        if isinstance(term, ChannelTerm):
+            powers = term.powers()
+            if "a" in powers:
+                if powers != {"a": 1}:
+                    raise NotSimulable(f"term {term.name} ({term.channel}) is not linear in a")
+                return [("accel", None, s)]
+            return [("mono", tuple((channel(c), p) for c, p in powers.items()), s)]
+        if isinstance(term, CoulombTerm):
+            if term.channel != "v":
+                raise NotSimulable(f"term {term.name}: sign of {term.channel}")
+            return [("tanh", v0, s)]
+        if isinstance(term, SmoothCoulombTerm):
+            return [("tanh", float(term.scale), s)]
+        if isinstance(term, MemoryTerm):
+            if term.channel != x:
+                raise NotSimulable(f"term {term.name}: a memory arm of {term.channel}")
+            memory.append(_fixed(term, term.tau))
+            return [("memory", (len(memory) - 1, _fixed(term, term.tau)), s)]
+        if isinstance(term, LagTerm):
+            if term.channel in (x, "v", "a"):
+                raise NotSimulable(f"term {term.name}: a lag of the state {term.channel}")
+            name = channel(term.channel)
+            if term.filter == "delay":
+                return [("delay", (name, _fixed(term, term.time)), s)]
+            lags.append((name, _fixed(term, term.time)))
+            return [("lag", len(lags) - 1, s)]
+        raise NotSimulable(f"term {term.name} of kind {term.kind} has no free-run form")
+
+    for term, coef in zip(model.terms, model.coef, strict=True):
+        rhs += term_parts(term, float(coef))
+    for term in rig.known:
+        if getattr(term, "source", None) == "free_fall":
+            law = model.document["known"]["free_fall_friction"]
+            rhs.append(("friction", (float(law["Fc"]), float(law["b"]), v0), float(term.sign)))
+        else:
+            rhs += term_parts(term, rig.term_value(term, units))
+    lhs: list[tuple[str, Any, float]]
+    if rig.motion is not None:
+        lhs = [("accel", None, float(rig.motion.mass)), ("const", None, float(rig.motion.offset))]
+    else:
+        lhs = []
+        for value, part in zip(rig.part_values(units), rig.explained.parts, strict=True):
+            powers = part.powers()
+            if "a" in powers and powers != {"a": 1}:
+                raise NotSimulable(f"the explained part {part.channel} is not linear in a")
+            if powers == {"a": 1}:
+                lhs.append(("accel", None, float(value)))
+            elif not powers:
+                lhs.append(("const", None, float(value)))
+            else:
+                lhs.append(("mono", tuple((channel(c), p) for c, p in powers.items()),
+                            float(value)))  # fmt: skip
+    if not any(kind == "accel" for kind, _, _ in (*rhs, *lhs)):
+        raise NotSimulable(
+            "the balance has no inertial term (no a, no motion): the rig imposes its position, "
+            "so a free run does not apply"
+        )
+    return Equation(tuple(rhs), tuple(lhs), tuple(inputs), len(memory), tuple(lags), v0)

@@ -1,0 +1,247 @@
+"""The compiled integrators: one error-controlled run, and fixed-step runs over many draws.
+
+A model's free run is diffrax's Tsit5 (5th order) with a PID step-size controller (rtol 1e-6)
+over the block, its dense output read at the log's samples. The band's draws each carry a
+disturbance force sampled at the samples, which has a kink at every sample where an
+error-controlled step would shrink to nothing: they take diffrax's Tsit5 steps of exactly one
+sample (``solver.step`` in a loop), vectorised over the draws.
+
+Both are compiled once per :class:`~hmid.portable.freerun.program.Shape` (``lru_cache``) and
+are pure XLA programs, without host callbacks (no ``SaveAt(ts=...)``, whose checks are
+callbacks; no traced ``dt0``): JAX's persistent compilation cache keeps them, so a second run
+loads them instead of compiling (:mod:`hmid.pipeline.compilation`). Blocks are padded to a
+multiple of :data:`PAD` samples (the last one repeated); the loops stop at the real last
+sample, so padding costs memory, never steps, and one program serves a run's every block.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+
+from hmid.portable.freerun.equation import Equation, equation
+from hmid.portable.freerun.program import Program, Shape, vector_field
+
+#: Blocks are padded to a multiple of this many samples.
+PAD = 4096
+#: The controller's tolerances, and its most steps per sample (then the run stops, not ok).
+RTOL, ATOL, STEPS_PER_SAMPLE = 1e-6, 1e-9, 4
+#: The longest step, in samples: the states between steps are interpolated (cubic Hermite),
+#: which is as accurate as the steps over a few samples (a sampled input has a kink at every
+#: sample, so a log's steps are about one sample anyway)
+MAX_STEP = 4.0
+
+
+def padded_size(n: int) -> int:
+    """``n`` samples padded: the next multiple of :data:`PAD`."""
+    return -(-n // PAD) * PAD
+
+
+def padded(values: np.ndarray, size: int | None = None) -> np.ndarray:
+    """``values`` padded to ``size`` (default: :func:`padded_size`) with the last."""
+    n = len(values)
+    return np.concatenate([values, np.full((size or padded_size(n)) - n, values[-1])])
+
+
+@lru_cache(maxsize=16)
+def compiled(shape: Shape):
+    """``(run, draws)`` for programs of ``shape``, jitted. ``run(program, dts, count, y0, table,
+    noise, coef, taus, lag_times) -> (states, explained, ok)`` at every sample (``count``: how
+    many of the padded samples are real; NaN after a solver that stopped); ``draws`` the same
+    arguments with a row of ``noise``, ``coef`` and ``taus`` per draw, and a stride, -> the
+    position (draws, samples) at every stride-th sample."""
+    import diffrax
+    import jax
+    import jax.numpy as jnp
+
+    prepare, rhs, explained = vector_field(shape)
+    term = diffrax.ODETerm(rhs)
+    solver = diffrax.Tsit5()
+
+    def run(program, dts, count, y0, table, noise, coef, taus, lag_times):
+        args = (prepare(program, dts, count, coef, taus, lag_times), table, noise)
+        end = (count - 1).astype(dts.dtype)
+        solution = diffrax.diffeqsolve(
+            term, solver, 0.0, end, None, y0, args=args, saveat=diffrax.SaveAt(t0=True,
+            steps=True),
+            stepsize_controller=diffrax.PIDController(rtol=RTOL, atol=ATOL, dtmax=MAX_STEP),
+            adjoint=diffrax.ForwardMode(), max_steps=STEPS_PER_SAMPLE * dts.shape[0],
+            throw=False,
+        )  # fmt: skip
+        grid = jnp.minimum(jnp.arange(dts.shape[0]), count - 1).astype(dts.dtype)
+        ys = _hermite(solution.ts, solution.ys, lambda s, y: rhs(s, y, args), grid)
+        ok = solution.result == diffrax.RESULTS.successful
+        force = jax.vmap(lambda s, y: explained(s, y, args))(grid, ys)
+        return ys, force, ok
+
+    def _hermite(ts, ys, f, grid):
+        """The states at ``grid`` from the accepted steps': cubic Hermite between steps (value
+        and slope at both ends; 4th-order local error, as Tsit5's own dense output), one sorted
+        search for every sample (``SaveAt(ts=...)`` checks its times with a host callback, and
+        evaluating diffrax's dense output sample by sample costs more than the solve). Steps
+        never taken are inf: samples past the last step are NaN."""
+        ts = jnp.where(jnp.isfinite(ts), ts, jnp.inf)
+        slopes = jax.vmap(f)(jnp.where(jnp.isfinite(ts), ts, 0.0), jnp.nan_to_num(ys))
+        k = jnp.clip(jnp.searchsorted(ts, grid, side="right", method="sort") - 1, 0,
+                     ts.shape[0] - 2)  # fmt: skip
+        t0, t1 = ts[k], ts[k + 1]
+        h = t1 - t0
+        w = ((grid - t0) / h)[:, None]
+        h = h[:, None]
+        y0, y1, m0, m1 = ys[k], ys[k + 1], slopes[k], slopes[k + 1]
+        out = ((2 * w**3 - 3 * w**2 + 1) * y0 + (w**3 - 2 * w**2 + w) * h * m0
+               + (-2 * w**3 + 3 * w**2) * y1 + (w**3 - w**2) * h * m1)  # fmt: skip
+        exact = (grid == t0)[:, None]  # a sample on a step (the last one, a one-step block)
+        out = jnp.where(exact, y0, out)
+        return jnp.where(jnp.isfinite(t1)[:, None] | exact, out, jnp.nan)
+
+    def one_draw(program, dts, count, y0, table, noise, coef, taus, lag_times, stride):
+        args = (prepare(program, dts, count, coef, taus, lag_times), table, noise)
+        state = solver.init(term, 0.0, 1.0, y0, args)
+        end = (count - 1).astype(dts.dtype)
+
+        def step(k, carry):
+            y, state, xs = carry
+            s = (k * stride).astype(dts.dtype)
+            y, _, _, state, _ = solver.step(term, s, jnp.minimum(s + stride, end), y, args,
+                                            state, made_jump=False)  # fmt: skip
+            return y, state, xs.at[k + 1].set(y[0])
+
+        xs = jnp.full(dts.shape[0], jnp.nan).at[0].set(y0[0])
+        steps = (count - 1 + stride - 1) // stride
+        return jax.lax.fori_loop(0, steps, step, (y0, state, xs))[2]
+
+    draws = jax.vmap(one_draw, in_axes=(None, None, None, None, None, 0, 0, 0, None, None))
+    return jax.jit(run), jax.jit(draws)
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A free run: position, velocity and the explained quantity (None where it is an input)
+    at the times asked for; ``ok`` False if the solver stopped early (NaN after that)."""
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    explained: np.ndarray | None
+    ok: bool
+
+
+#: One draw's coefficients: the model side's and the explained side's (in the equation's part
+#: order), the memory arms' relaxation times, the lags' time constants.
+Coefficients = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+@dataclass(frozen=True)
+class Simulator:
+    """``model``'s equation of motion, compiled (:func:`simulator`)."""
+
+    equation: Equation
+    position: str
+    shape: Shape
+    program: tuple[np.ndarray, ...] = field(repr=False)
+    run: Callable[..., Any] = field(repr=False)
+    draws: Callable[..., Any] = field(repr=False)  # ``run`` over draws, at fixed steps
+
+    @property
+    def n_memory(self) -> int:
+        return self.equation.n_memory
+
+    def coefficients(self) -> Coefficients:
+        eq = self.equation
+        return (
+            np.array([c for _, _, c in eq.rhs], dtype=float),
+            np.array([c for _, _, c in eq.lhs], dtype=float),
+            np.array([d[1] for k, d, _ in eq.rhs if k == "memory"], dtype=float),
+            np.array([T for _, T in eq.lags], dtype=float),
+        )
+
+    def _padded(self, c: Coefficients) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Both sides' coefficients in the program's part order, and the time constants,
+        padded to the program's shape (padded states relax in 1 s and are read by no part)."""
+        cr, cl, taus, lags = c
+        coef = np.zeros(self.shape.parts)
+        coef[: len(cr)], coef[len(cr) : len(cr) + len(cl)] = cr, cl
+        return (coef, np.concatenate([taus, np.ones(self.shape.memory - len(taus))]),
+                np.concatenate([lags, np.ones(self.shape.lags - len(lags))]))  # fmt: skip
+
+    def _block(self, t, inputs, x0, v0, memory0, size=None):
+        """The arguments a compiled program reads for one block (padded to ``size``)."""
+        eq, shape = self.equation, self.shape
+        missing = [name for name in eq.inputs if name not in inputs]
+        if missing:
+            raise ValueError(f"the free run needs the inputs {missing} (at every time of t)")
+        t = np.asarray(t, dtype=float)
+        if len(t) < 2:
+            raise ValueError("the free run needs at least two times")
+        dts = padded(np.diff(t), max(size or 0, padded_size(len(t))))
+        values = np.zeros((shape.inputs, len(dts)))
+        for i, name in enumerate(eq.inputs):
+            values[i] = padded(np.asarray(inputs[name], dtype=float), len(dts))
+        memory = np.zeros(shape.memory)
+        if memory0 is not None:
+            memory[: eq.n_memory] = np.asarray(memory0, dtype=float)
+        lags = np.zeros(shape.lags)
+        lags[: len(eq.lags)] = [values[eq.inputs.index(name), 0] for name, _ in eq.lags]
+        y0 = np.concatenate([[x0, v0], memory, lags])
+        return dts, np.int32(len(t)), y0, values
+
+    def integrate(self, t, inputs, x0: float, v0: float = 0.0, memory0=None, *,
+                  coefficients: Coefficients | None = None, disturbance=None,
+                  size: int | None = None) -> Trajectory:  # fmt: skip
+        """Run from (x0, v0) and the memory arms' states ``memory0`` (default: at rest) over
+        the times ``t``, driven by ``inputs`` (name -> values at ``t``); ``coefficients``
+        replaces :meth:`coefficients` (a posterior draw); ``disturbance`` is a force added to
+        the balance's model side at ``t`` (default none); ``size``: the samples to pad to
+        (blocks of one size share one compiled program)."""
+        import jax
+        import jax.numpy as jnp
+
+        dts, count, y0, values = self._block(t, inputs, x0, v0, memory0, size)
+        n = int(count)
+        noise = np.zeros(len(dts))
+        if disturbance is not None:
+            noise[:n] = disturbance
+        coef, taus, lag_times = self._padded(coefficients or self.coefficients())
+        with jax.enable_x64(True):
+            arrays = (self.program, dts, count, y0, values, noise, coef, taus, lag_times)
+            ys, force, ok = self.run(*jax.tree.map(jnp.asarray, arrays))
+            ys, force = np.asarray(ys)[:n], np.asarray(force)[:n]
+        output = any(k == "accel" for k, _, _ in self.equation.lhs)
+        return Trajectory(np.asarray(t), ys[:, 0], ys[:, 1], force if output else None, bool(ok))
+
+    def positions(self, t, inputs, x0, v0, memory0, draws: list[Coefficients],
+                  disturbances: np.ndarray, stride: int = 1,
+                  size: int | None = None) -> np.ndarray:  # fmt: skip
+        """The position (draws, len(t)) of one run per coefficient draw with its disturbance
+        row, in one vectorised call, at fixed steps of ``stride`` samples (the position
+        linear between them)."""
+        import jax
+        import jax.numpy as jnp
+
+        dts, count, y0, values = self._block(t, inputs, x0, v0, memory0, size)
+        n = int(count)
+        rows = [self._padded(d) for d in draws]
+        coef, taus = np.stack([r[0] for r in rows]), np.stack([r[1] for r in rows])
+        noise = np.zeros((len(draws), len(dts)))
+        noise[:, :n] = disturbances
+        with jax.enable_x64(True):
+            arrays = (self.program, dts, count, y0, values, noise, coef, taus, rows[0][2],
+                      np.int32(stride))  # fmt: skip
+            xs = np.asarray(self.draws(*jax.tree.map(jnp.asarray, arrays)))
+        if stride == 1:
+            return xs[:, :n]
+        at = np.minimum(np.arange(0, n - 1 + stride, stride), n - 1)
+        return np.stack([np.interp(np.arange(n), at, row[: len(at)]) for row in xs])
+
+
+def simulator(model, v0: float | None = None) -> Simulator:
+    """The compiled free run of ``model``; :class:`NotSimulable` says why there is none."""
+    eq = equation(model, v0)
+    shape = Shape.of(eq)
+    program = Program.of(eq, model.rig.position, shape).arrays()
+    return Simulator(eq, model.rig.position, shape, program, *compiled(shape))

@@ -1,0 +1,203 @@
+"""An equation of motion as arrays (:class:`Program`), and its vector field in JAX.
+
+Tracing and compiling diffrax costs seconds; running a model, milliseconds. So the compiled
+solvers (:mod:`~hmid.portable.freerun.integrator`) never see a model: they see its parts as
+arrays of a padded :class:`Shape` (parts to a multiple of :data:`PARTS`, inputs, memory arms and
+lags to a power of two), and every model of that shape, of any family, runs through one
+compiled program: the demo's six models share one.
+
+Time inside the program is the sample index s (sample k at s = k, the log's own step dt_k
+between samples k and k + 1, so a logger's jitter is honoured): the inputs are read at s by one
+index and one weight, never by a search, and the vector field is dy/ds = f(t, y) dt_k.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from hmid.portable.freerun.equation import Equation, NotSimulable
+
+#: The kinds of a part of the balance, in the order of :class:`Program`'s flags.
+KINDS = ("mono", "tanh", "memory", "lag", "delay", "friction", "accel")
+#: Parts are padded to a multiple of this, powers to this degree
+PARTS, DEGREE = 24, 4
+
+
+def _bucket(n: int, least: int = 1) -> int:
+    """``n`` rounded up to a power of two, at least ``least``."""
+    size = least
+    while size < n:
+        size *= 2
+    return size
+
+
+class Shape(NamedTuple):
+    """What a compiled program depends on: parts, inputs, memory arms, lags, delays."""
+
+    parts: int
+    inputs: int
+    memory: int
+    lags: int
+    delays: bool
+
+    @classmethod
+    def of(cls, eq: Equation) -> Shape:
+        n = len(eq.rhs) + len(eq.lhs)
+        delays = any(kind == "delay" for kind, _, _ in eq.rhs)
+        return cls(-(-n // PARTS) * PARTS, _bucket(len(eq.inputs)), _bucket(eq.n_memory),
+                   _bucket(len(eq.lags)), delays)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Program:
+    """An equation's parts as arrays: ``side`` +1 on the model side, -1 on the explained side, 0
+    for padding; ``flags`` one row per kind of :data:`KINDS`; ``powers`` the exponents of x, v
+    and the inputs; the rest each kind's data. Padded memory arms and lags are states that no
+    part reads."""
+
+    side: np.ndarray
+    flags: np.ndarray
+    powers: np.ndarray
+    scale: np.ndarray
+    memory: np.ndarray
+    lag: np.ndarray
+    delay_input: np.ndarray
+    delay: np.ndarray
+    friction: np.ndarray
+    lag_input: np.ndarray  # the input each first-order lag follows
+
+    @classmethod
+    def of(cls, eq: Equation, position: str, shape: Shape) -> Program:
+        parts = [(+1, p) for p in eq.rhs] + [(-1, p) for p in eq.lhs]
+        n = shape.parts
+        channels = ["x", "v", *eq.inputs]
+        lag_input = np.zeros(shape.lags, dtype=np.int32)
+        lag_input[: len(eq.lags)] = [eq.inputs.index(name) for name, _ in eq.lags]
+        out: dict[str, Any] = {
+            "side": np.zeros(n), "flags": np.zeros((len(KINDS), n)),
+            "powers": np.zeros((n, 2 + shape.inputs), dtype=np.int32), "scale": np.ones(n),
+            "memory": np.zeros(n, dtype=np.int32), "lag": np.zeros(n, dtype=np.int32),
+            "delay_input": np.zeros(n, dtype=np.int32), "delay": np.zeros(n),
+            "friction": np.tile([0.0, 0.0, 1.0], (n, 1)), "lag_input": lag_input,
+        }  # fmt: skip
+        for i, (side, (kind, data, _)) in enumerate(parts):
+            out["side"][i] = side
+            if kind == "const":
+                kind = "mono"
+            out["flags"][KINDS.index(kind), i] = 1.0
+            if kind == "mono" and data is not None:
+                for name, power in _rename(data, position):
+                    if power > DEGREE:
+                        raise NotSimulable(f"a power {power} above {DEGREE} in the balance")
+                    out["powers"][i, channels.index(name)] += power
+            elif kind == "tanh":
+                out["scale"][i] = data
+            elif kind == "memory":
+                out["memory"][i] = data[0]
+            elif kind == "lag":
+                out["lag"][i] = data
+            elif kind == "delay":
+                out["delay_input"][i], out["delay"][i] = eq.inputs.index(data[0]), data[1]
+            elif kind == "friction":
+                out["friction"][i] = data
+        return cls(**out)
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        return tuple(getattr(self, f.name) for f in fields(self))
+
+
+def _rename(data, position: str):
+    """The position channel is called "x" inside the integrator."""
+    if isinstance(data, tuple) and data and isinstance(data[0], tuple):
+        return tuple(("x" if c == position else c, p) for c, p in data)
+    return data
+
+
+def vector_field(shape: Shape):
+    """``(prepare, field, explained)`` for programs of ``shape``. ``prepare(program, dts, count,
+    coef, taus, lag_times)`` folds the coefficients into per-kind weights once per run (the loop
+    then does no gathers but the inputs' sample); ``field(s, y, args)`` is dy/ds at sample time s
+    with ``args = (prepared, table, noise)``, ``table`` the inputs (rows) and ``noise`` the
+    disturbance force at the samples; ``explained(s, y, args)`` the explained quantity the state
+    implies."""
+    import jax
+    import jax.numpy as jnp
+
+    m = shape.memory
+
+    def prepare(program, dts, count, coef, taus, lag_times):
+        side, flags, powers, scale, memory, lag_of, delay_input, delay, friction, lag_input = (
+            program
+        )
+        onehot = (powers[:, :, None] == jnp.arange(DEGREE + 1)).astype(coef.dtype)
+        mean_step = jnp.sum(jnp.where(jnp.arange(dts.shape[0]) < count - 1, dts, 0.0)) / (
+            count - 1)  # fmt: skip
+
+        def weights(w):
+            """Each kind's weight on its regressors: w (a part's signed coefficient) folded."""
+            return (
+                w * flags[0], w * flags[1],
+                (w * flags[2]) @ jax.nn.one_hot(memory, m, dtype=w.dtype),
+                (w * flags[3]) @ jax.nn.one_hot(lag_of, shape.lags, dtype=w.dtype),
+                w * flags[4], w * flags[5], jnp.sum(w * flags[6]),
+            )  # fmt: skip
+
+        signed = side * coef
+        return {
+            "dts": dts, "count": count, "onehot": onehot, "scale": scale, "friction": friction,
+            "delay": delay / mean_step, "delay_input": delay_input, "taus": taus,
+            "lag_times": lag_times, "lag_input": lag_input, "model": weights(signed),
+            "explained": weights(jnp.where(side < 0, signed, 0.0)),
+        }  # fmt: skip
+
+    def at(s, table, count):
+        """The table's columns at sample time s, linear between samples; and the sample."""
+        k = jnp.clip(jnp.floor(s).astype(jnp.int32), 0, count - 2)
+        w = s - k
+        return table[..., k] * (1 - w) + table[..., k + 1] * w, k
+
+    def total(s, y, now, p, table, weights):
+        """The weighted sum of the parts that do not hold a, and the coefficient of a."""
+        mono, tanh_w, memory_w, lag_w, delay_w, friction_w, accel = weights
+        x, v = y[0], y[1]
+        z = jnp.concatenate([jnp.stack([x, v]), now])
+        powers = jnp.stack([z**k for k in range(DEGREE + 1)], axis=1)  # (channels, degree + 1)
+        monomials = jnp.prod(jnp.einsum("pck,ck->pc", p["onehot"], powers), axis=1)
+        fc, b, v0 = p["friction"][:, 0], p["friction"][:, 1], p["friction"][:, 2]
+        value = (
+            jnp.dot(mono, monomials) + jnp.dot(tanh_w, jnp.tanh(v / p["scale"]))
+            + jnp.dot(friction_w, (fc + b * jnp.abs(v)) * jnp.tanh(v / v0))
+            + jnp.dot(memory_w, y[2 : 2 + m]) + jnp.dot(lag_w, y[2 + m :])
+        )  # fmt: skip
+        if shape.delays:
+            late = jax.vmap(lambda d, i: at(s - d, table, p["count"])[0][i])(
+                p["delay"], p["delay_input"])  # fmt: skip
+            value = value + jnp.dot(delay_w, late)
+        return value, accel
+
+    def rates(s, y, args):
+        """dy/dt, the acceleration solved from the balance (the disturbance a force on the
+        model side); and the step dt/ds there."""
+        p, table, noise = args
+        now, k = at(s, table, p["count"])
+        force = at(s, noise, p["count"])[0]
+        value, accel = total(s, y, now, p, table, p["model"])
+        a = -(value + force) / accel
+        dq = -y[2 : 2 + m] / p["taus"] + y[1]
+        dlag = (now[p["lag_input"]] - y[2 + m :]) / p["lag_times"]
+        return jnp.concatenate([jnp.stack([y[1], a]), dq, dlag]), p["dts"][k], now
+
+    def field(s, y, args):
+        dy, dt, _ = rates(s, y, args)
+        return dy * dt
+
+    def explained(s, y, args):
+        p, table, _ = args
+        dy, _, now = rates(s, y, args)
+        value, accel = total(s, y, now, p, table, p["explained"])
+        return -value - accel * dy[1]
+
+    return prepare, field, explained

@@ -1,0 +1,209 @@
+"""A model's free runs over a log's blocks, with their band: the driver that ties the equation,
+the integrator, the band and the scores together (what the pipeline's ``freerun`` stage and
+:meth:`Model.free_run <hmid.portable.Model.free_run>` call).
+
+Each block starts from the measured state at its first row (the memory arms' states from the
+measured position before it: the arm's response to the motion up to there) and is driven by the
+measured inputs alone.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hmid.portable.freerun.band import (
+    Calibration,
+    calibrate,
+    coefficient_draws,
+    disturbances,
+    quantile_band,
+)
+from hmid.portable.freerun.equation import NotSimulable
+from hmid.portable.freerun.integrator import Simulator, padded_size, simulator
+from hmid.portable.freerun.scores import FreeRun, score_block
+
+
+def blocks(signals, role: str = "validation") -> list[np.ndarray]:
+    """Row spans to simulate: within each segment, from the first to the last row of ``role``,
+    split where the role's rows stop for longer than a second (another block of the split)."""
+    mask = signals.rows(role)
+    t = signals["t"]
+    out = []
+    for rows in signals.segments():
+        chosen = rows[mask[rows]]
+        if len(chosen) < 10:
+            continue
+        breaks = np.flatnonzero(np.diff(t[chosen]) > 1.0) + 1
+        for part in np.split(chosen, breaks):
+            if len(part) >= 10:
+                out.append(np.arange(part[0], part[-1] + 1))
+    return out
+
+
+def chunks(spans: list[np.ndarray], length: int) -> list[np.ndarray]:
+    """``spans`` cut into runs of ``length`` rows (the remainder a shorter run; at least ten
+    rows each): the training blocks as long as the held-out ones, so that the band is
+    calibrated on the horizon it is checked on (a free run's error grows with it)."""
+    length = max(length, 10)
+    out = []
+    for rows in spans:
+        out += [rows[i : i + length] for i in range(0, len(rows), length)]
+    return [part for part in out if len(part) >= 10]
+
+
+def simulate_signals(
+    model, signals, spans, *, v0: float | None = None, draws: int = 0, level: float = 0.9,
+    seed: int = 0, calibration: list[np.ndarray] | None = None,
+) -> FreeRun:  # fmt: skip
+    """Free runs of ``model`` on ``signals`` over each span of rows (see :func:`blocks`); with
+    ``draws``, a ``level`` band of the position from as many draws of the coefficients and of a
+    disturbance force (:mod:`~hmid.portable.freerun.band`), whose scale is calibrated on the
+    ``calibration`` spans (the training blocks; without them, the training residual's scale)."""
+    try:
+        sim = simulator(model, v0)
+    except NotSimulable as err:
+        return FreeRun(model.name, (), str(err))
+    memory_rows = _memory_states(model, signals)
+    band, sampled, scale, calibrated, stride = "", None, 1.0, None, 1
+    pieces: list[np.ndarray] = []
+    if draws and spans:
+        sampled = coefficient_draws(model, sim, draws, seed)
+        band = "posterior draws" if model.posterior is not None else "coefficient covariance"
+        if sampled is None:
+            sampled, band = [sim.coefficients()] * draws, "no coefficient uncertainty in the file"
+        if calibration:
+            length = max(len(rows) for rows in spans)
+            total = sum(len(rows) for rows in spans)
+            pieces = _spread(chunks(calibration, length), CALIBRATION_SHARE * total)
+    # one padded size for every block: one compiled program (and one trace) per model shape
+    size = padded_size(max(len(rows) for rows in (*spans, *pieces))) if spans else None
+    if sampled:
+        stride = _stride(sim, _start(sim, signals, max(spans, key=len)[:2000], memory_rows),
+                         len(sampled), size)  # fmt: skip
+    if pieces:
+        calibrated = _calibrate(model, sim, signals, pieces, sampled, memory_rows, level, seed,
+                                stride, size)  # fmt: skip
+        scale = calibrated.scale
+    rng = np.random.default_rng([seed, 1])
+    out = []
+    for rows in spans:
+        start = _start(sim, signals, rows, memory_rows)
+        run = sim.integrate(*start, size=size)
+        bounds = None
+        if sampled:
+            noise = scale * disturbances(model, len(rows), len(sampled), rng)
+            runs = sim.positions(
+                *start,
+                [sim.coefficients(), *sampled],
+                np.concatenate([np.zeros((1, len(rows))), noise]),
+                stride=stride,
+                size=size,
+            )
+            bounds = quantile_band(runs[1:], level)
+        out.append(score_block(model.rig, signals, rows, run, bounds))
+    return FreeRun(model.name, tuple(out), level=level if sampled else None,
+                   band=_describe(band, calibrated) if sampled else "",
+                   calibration=calibrated)  # fmt: skip
+
+
+#: What a block's free run starts from: its times, inputs, first position, speed, memory states
+Start = tuple[np.ndarray, dict[str, np.ndarray], float, float, list[float]]
+
+#: The band's draws step this long (in whole samples, at least one): a fifth of the steps of a
+#: 1 kHz log, checked against the error-controlled run (:func:`_stride`)
+BAND_STEP = 0.005
+#: The training samples the band is calibrated on, at most, as a multiple of the held-out ones
+CALIBRATION_SHARE = 2.0
+
+
+def _stride(sim: Simulator, start: Start, draws: int, size: int | None) -> int:
+    """Samples per step of the band's draws: :data:`BAND_STEP` long, unless the nominal run at
+    that step leaves the error-controlled one by more than 1 % of the motion there (a stiff
+    model: then one sample). The check runs as many rows as a band (one compiled program)."""
+    t = start[0]
+    stride = max(1, int(BAND_STEP / np.median(np.diff(t))))
+    if stride == 1:
+        return 1
+    exact = sim.integrate(*start, size=size).x
+    rows = [sim.coefficients()] * (1 + draws)
+    fixed = sim.positions(*start, rows, np.zeros((1 + draws, len(t))), stride=stride,
+                          size=size)[0]  # fmt: skip
+    gap = np.max(np.abs(fixed - exact)) if np.all(np.isfinite(fixed)) else np.inf
+    return stride if gap <= 0.01 * (np.ptp(exact) or 1e-3) else 1
+
+
+def _spread(pieces: list[np.ndarray], samples: float) -> list[np.ndarray]:
+    """At most ``samples`` rows of ``pieces``, taken evenly across them (every k-th piece)."""
+    total = sum(len(p) for p in pieces)
+    if total <= samples:
+        return pieces
+    every = int(np.ceil(total / samples))
+    return pieces[::every]
+
+
+def _start(sim: Simulator, signals, rows, memory_rows) -> Start:
+    """A block's times, inputs and measured first state: what a free run starts from."""
+    first = rows[0]
+    inputs = {name: signals[name][rows] for name in sim.equation.inputs}
+    return (signals["t"][rows], inputs, signals[sim.position][first], signals["v"][first],
+            [m[first] for m in memory_rows])  # fmt: skip
+
+
+def _calibrate(model, sim, signals, spans, sampled, memory_rows, level, seed, stride,
+               size) -> Calibration:  # fmt: skip
+    """The disturbance's scale from the training ``spans`` (:func:`~.band.calibrate`): per span,
+    the nominal coefficients with every coefficient draw without disturbance, then with the
+    nominal coefficients under every disturbance draw of scale 1 (two vectorised calls of the
+    band's size)."""
+    rng = np.random.default_rng([seed, 2])
+    nominal = sim.coefficients()
+    found = []
+    for rows in spans:
+        start = _start(sim, signals, rows, memory_rows)
+        zeros = np.zeros((1 + len(sampled), len(rows)))
+        coefficients = sim.positions(*start, [nominal, *sampled], zeros, stride=stride, size=size)
+        noise = zeros.copy()
+        noise[1:] = disturbances(model, len(rows), len(sampled), rng)
+        disturbed = sim.positions(*start, [nominal] * (1 + len(sampled)), noise, stride=stride,
+                                  size=size)  # fmt: skip
+        x0 = coefficients[0]
+        found.append((signals[sim.position][rows], x0, coefficients[1:] - x0, disturbed[1:] - x0))
+    return calibrate(found, level)
+
+
+def _describe(band: str, calibrated: Calibration | None) -> str:
+    if calibrated is None:
+        return band + " + the training residual as a disturbance force (not calibrated)"
+    if not calibrated.reachable:
+        covered = f"{100 * calibrated.coverage:.0f} %"
+        return (band + " + a disturbance force: no scale of it reaches the level on the "
+                f"training blocks ({covered} there at the largest scale tried: the draws "
+                "diverge, or the disturbance moves too little): not calibrated")  # fmt: skip
+    if calibrated.scale == 0:
+        return (band + f": alone it covers {100 * calibrated.coverage:.0f} % of the training "
+                "blocks, no disturbance added")  # fmt: skip
+    return (band + f" + a disturbance force {calibrated.scale:.3g}x the training residual, "
+            "its scale calibrated on the training blocks")  # fmt: skip
+
+
+def _memory_states(model, signals) -> list[np.ndarray]:
+    """Each memory arm's state g_tau(x) on every row, from the measured position (the block's
+    initial state: the arm's response to the motion before it)."""
+    from hmid.balance import Structure
+    from hmid.balance.kinds import MemoryTerm
+
+    out = []
+    for term in model.terms:
+        if isinstance(term, MemoryTerm):
+            column = Structure.of((term,)).columns(signals).values[:, 0]
+            out.append(column / term.sign)
+    return out
+
+
+def free_run(model, log, *, v0: float | None = None) -> FreeRun:
+    """Free run of ``model`` over ``log`` (from its first usable row to its last) from the
+    measured state there, driven by the log's inputs."""
+    signals = model.signals(log)
+    usable = np.flatnonzero(signals["usable"])
+    spans = [np.arange(usable[0], usable[-1] + 1)] if len(usable) else []
+    return simulate_signals(model, signals, spans, v0=v0)

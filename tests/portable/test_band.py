@@ -1,0 +1,61 @@
+"""The free run's band: its quantiles, and the disturbance scale calibrated on training blocks
+against cases whose answer is known (an error that is the disturbance's response times a known
+factor; a coefficient band that covers alone; a disturbance that moves nothing)."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from hmid.portable.freerun import calibrate, chunks
+from hmid.portable.freerun.band import quantile_band
+
+
+def test_the_band_is_numpys_quantile_of_the_draws_that_did_not_diverge():
+    runs = np.random.default_rng(0).normal(size=(20, 300))
+    runs[3, 100:] = np.nan  # a draw that diverged at sample 100
+    runs[5, 7] = np.inf
+    runs[:, 250:] = np.nan  # every draw diverged: no band
+    lower, upper = quantile_band(runs, 0.9)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        expected = np.nanquantile(np.where(np.isfinite(runs), runs, np.nan), [0.05, 0.95], 0)
+    np.testing.assert_allclose(lower, expected[0], atol=1e-15)
+    np.testing.assert_allclose(upper, expected[1], atol=1e-15)
+    assert np.isnan(lower[250:]).all() and np.isfinite(lower[:250]).all()
+
+
+def _chunk(rng, n: int, draws: int, error_scale: float, coefficient_scale: float = 0.0):
+    """A training block whose measured position leaves the nominal run by a disturbance
+    response ``error_scale`` times as large as the scale-1 draws'."""
+    nominal = np.zeros(n)
+    d = rng.normal(size=(draws, n))
+    c = coefficient_scale * rng.normal(size=(draws, n))
+    measured = error_scale * rng.normal(size=n)
+    return measured, nominal, c, d
+
+
+def test_the_disturbance_scale_is_the_factor_that_covers_the_level():
+    rng = np.random.default_rng(1)
+    found = calibrate([_chunk(rng, 4000, 200, 3.0) for _ in range(3)], 0.9)
+    assert found.reachable and found.coverage == pytest.approx(0.9, abs=0.005)
+    assert found.scale == pytest.approx(3.0, rel=0.05)
+
+
+def test_a_coefficient_band_that_covers_alone_adds_no_disturbance():
+    rng = np.random.default_rng(2)
+    found = calibrate([_chunk(rng, 2000, 100, 1.0, coefficient_scale=3.0)], 0.9)
+    assert found.scale == 0.0 and found.coverage > 0.9
+
+
+def test_a_disturbance_that_moves_nothing_cannot_reach_the_level_and_says_so():
+    rng = np.random.default_rng(3)
+    measured, nominal, c, d = _chunk(rng, 1000, 50, 1.0)
+    found = calibrate([(measured, nominal, c, 0 * d)], 0.9)
+    assert not found.reachable and found.coverage < 0.1
+
+
+def test_training_blocks_are_cut_to_the_held_out_length():
+    pieces = chunks([np.arange(100), np.arange(200, 225), np.arange(300, 305)], 40)
+    assert [len(p) for p in pieces] == [40, 40, 20, 25]  # the 5-row block: too short
+    assert np.array_equal(np.concatenate(pieces[:3]), np.arange(100))
