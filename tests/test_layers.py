@@ -64,9 +64,6 @@ MAX_LINES = 60
 #: Functions allowed to be longer, each with its reason.
 LONG_ALLOWED = {
     "hmid/cli.py:build_parser",  # an argparse table: one line per option, nothing to name
-    # temporarily: another branch splits the portable simulator's free-run functions
-    "hmid/portable/freerun.py:equation",
-    "hmid/portable/freerun.py:_compiled",
 }
 
 
