@@ -22,6 +22,7 @@ import numpy as np
 import yaml
 
 from hmid.population._config import Muscle, PopulationConfig
+from hmid.population._law import PARAMETERS
 from hmid.simulate.params import MuscleParams, RigParams, ValveParams
 from hmid.simulate.profiles import Chirp, Constant, Cycles, RandomLevels, Sine, Steps
 from hmid.simulate.rigs.hydro_muscle_dataset import DynamicLog, HydroMuscleDataset
@@ -139,3 +140,12 @@ def truth(folder: Path) -> MuscleParams:
 
     record = json.loads(next(iter(sorted(folder.glob("*.truth.json")))).read_text())
     return MuscleParams(**record["rig"]["muscle"])
+
+
+def truth_values(folder: Path) -> np.ndarray | None:
+    """A written muscle's true parameters in PARAMETERS' order, or None where its data set has
+    no truth records (not simulated)."""
+    if not any(folder.glob("*.truth.json")):
+        return None
+    params = truth(folder).model_dump()
+    return np.array([params[p] for p in PARAMETERS])

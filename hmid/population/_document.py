@@ -20,6 +20,25 @@ def population_report(
     figure: Path,
     provenance: dict,
 ) -> Report:
+    """The report: the summary lines, the law, the muscles, the diagnostics and, where it ran,
+    leave-one-out."""
+    sections = [
+        _law_section(exponents, figure),
+        _muscles_section(muscles),
+        _diagnostics_section(fit),
+    ]
+    if forces is not None:
+        sections.append(_leave_one_out_section(forces, params))
+    return Report(
+        title="Population: a generic Hydro Muscle model",
+        summary=tuple(_summary(fit, metrics)),
+        sections=tuple(sections),
+        provenance=provenance,
+    )
+
+
+def _summary(fit: PopulationFit, metrics: dict) -> list[tuple[str, str]]:
+    """The summary lines: the fit's targets, then leave-one-out's where it ran."""
     verdict = "converged" if metrics["converged"] else "NOT converged"
     summary = [
         ("muscles", str(len(fit.names))),
@@ -53,76 +72,73 @@ def population_report(
                 "(target 0.87–0.93; the benchmark replicates the population)",
             )
         )
-    sections = [
-        Section(
-            "The scaling law",
-            "log p = c + Σ e·log(spec) per parameter; exponents with priors centred on the "
-            "physically expected values (A_eff ~ bore area, F0 ~ wall area, k1 ~ k2 ~ E A_w/L, "
-            "k3 ~ E A_w/L³, tau constant), each muscle's SLS posterior carried in as a "
-            "multivariate normal likelihood. NumPyro NUTS; ArviZ diagnostics below.",
-            tables=(
-                Table(
-                    exponents,
-                    "Exponents: posterior median and 90 % interval beside the expected value",
-                    key_columns=("parameter", "specification"),
-                ),
-            ),
-            figures=(
-                Figure(
-                    figure,
-                    "Each parameter against each specification: the muscles' parameters in "
-                    "the population fit (the other specifications' part of the law taken "
-                    "out) and the law's line.",
-                ),
+    return summary
+
+
+def _law_section(exponents: pd.DataFrame, figure: Path) -> Section:
+    return Section(
+        "The scaling law",
+        "log p = c + Σ e·log(spec) per parameter; exponents with priors centred on the "
+        "physically expected values (A_eff ~ bore area, F0 ~ wall area, k1 ~ k2 ~ E A_w/L, "
+        "k3 ~ E A_w/L³, tau constant), each muscle's SLS posterior carried in as a "
+        "multivariate normal likelihood. NumPyro NUTS; ArviZ diagnostics below.",
+        tables=(
+            Table(
+                exponents,
+                "Exponents: posterior median and 90 % interval beside the expected value",
+                key_columns=("parameter", "specification"),
             ),
         ),
-        Section(
-            "The muscles",
-            "Builds, each muscle's own SLS fit (posterior mean) and the simulator's truth.",
-            tables=(Table(muscles, "Muscles", key_columns=("muscle",)),),
-        ),
-        Section(
-            "Diagnostics",
-            "ArviZ summary of the law's coordinates.",
-            tables=(
-                Table(
-                    fit.diagnostics.reset_index(names="coordinate"),
-                    "NUTS diagnostics",
-                    collapsed=True,
-                ),
+        figures=(
+            Figure(
+                figure,
+                "Each parameter against each specification: the muscles' parameters in "
+                "the population fit (the other specifications' part of the law taken "
+                "out) and the law's line.",
             ),
         ),
-    ]
-    if forces is not None:
-        sections.append(
-            Section(
-                "Leave one muscle out",
-                "Each muscle predicted from its specifications by the population fitted without "
-                "it; held-out force RMSE (the last 30 % of each dynamic log) against (a) its own "
-                "fitted "
-                "model, (b) the population's mean model without specifications, (c) one other "
-                "muscle's model used as is (the thesis's way; median over the others), and (d) the "
-                "simulator's exact law without the muscle's manufacturing scatter, the floor of "
-                "any prediction from specifications alone.",
-                tables=tuple(
-                    t
-                    for t in (
-                        Table(forces, "Held-out force, left-out muscles", key_columns=("muscle",)),
-                        None
-                        if params is None
-                        else Table(
-                            params,
-                            "Left-out parameters: predicted, 90 % predictive interval, truth",
-                            collapsed=True,
-                        ),
-                    )
-                    if t is not None
-                ),
+    )
+
+
+def _muscles_section(muscles: pd.DataFrame) -> Section:
+    return Section(
+        "The muscles",
+        "Builds, each muscle's own SLS fit (posterior mean) and the simulator's truth.",
+        tables=(Table(muscles, "Muscles", key_columns=("muscle",)),),
+    )
+
+
+def _diagnostics_section(fit: PopulationFit) -> Section:
+    return Section(
+        "Diagnostics",
+        "ArviZ summary of the law's coordinates.",
+        tables=(
+            Table(
+                fit.diagnostics.reset_index(names="coordinate"),
+                "NUTS diagnostics",
+                collapsed=True,
+            ),
+        ),
+    )
+
+
+def _leave_one_out_section(forces: pd.DataFrame, params: pd.DataFrame | None) -> Section:
+    tables = [Table(forces, "Held-out force, left-out muscles", key_columns=("muscle",))]
+    if params is not None:
+        tables.append(
+            Table(
+                params,
+                "Left-out parameters: predicted, 90 % predictive interval, truth",
+                collapsed=True,
             )
         )
-    return Report(
-        title="Population: a generic Hydro Muscle model",
-        summary=tuple(summary),
-        sections=tuple(sections),
-        provenance=provenance,
+    return Section(
+        "Leave one muscle out",
+        "Each muscle predicted from its specifications by the population fitted without it; "
+        "held-out force RMSE (the last 30 % of each dynamic log) against (a) its own fitted "
+        "model, (b) the population's mean model without specifications, (c) one other "
+        "muscle's model used as is (the thesis's way; median over the others), and (d) the "
+        "simulator's exact law without the muscle's manufacturing scatter, the floor of "
+        "any prediction from specifications alone.",
+        tables=tuple(tables),
     )

@@ -211,60 +211,23 @@ def fit_population(
     """Sample the population's posterior from the muscles' builds and their own fits
     (``engine``: a sampler compiled before for as many muscles, else a new one)."""
     import arviz as az
-    import jax
 
     if len(specs) != len(fits) or not fits:
         raise HmidError(f"need one fit per muscle: {len(specs)} builds, {len(fits)} fits")
     start, cpu = time.perf_counter(), time.process_time()
     names = tuple(f.name for f in fits)
-    scale = _scale(fits)
-    F_raw = feature_matrix(specs)
-    O_raw = np.array([offsets(s) for s in specs])
-    center, center_offsets = F_raw.mean(axis=0), O_raw.mean(axis=0)
-    F, Off = F_raw - center, O_raw - center_offsets
-    m, W = _whiten(fits, scale)
-    expected = expected_matrix()
+    data = _design(specs, fits)
     engine = engine if engine is not None else Engine(sampler)
-    with jax.enable_x64(True):
-        k = _centring(fits, scale)
-        args = (
-            F,
-            Off,
-            W,
-            m,
-            k,
-            expected,
-            _ADDITIVE,
-            priors.exponent_sd,
-            priors.intercept_sd,
-            priors.scatter_sd,
-        )
-        mcmc = engine.run(args, _init(m, k, F, Off, expected), engine.sampler.seed)
-        samples = {k: np.asarray(v) for k, v in mcmc.get_samples().items()}
-        idata = az.from_numpyro(
-            mcmc,
-            coords={
-                "parameter": list(PARAMETERS),
-                "feature": list(FEATURES),
-                "muscle": list(names),
-            },
-            dims={
-                "intercept": ["parameter"],
-                "exponent": ["parameter", "feature"],
-                "scatter": ["parameter"],
-                "y": ["muscle", "parameter"],
-                "y_k": ["muscle", "parameter"],
-            },
-        )
+    samples, idata = _sample(engine, data, fits, priors, names)
     diagnostics = az.summary(idata, var_names=["intercept", "exponent", "scatter"], hdi_prob=0.9)
     y = samples["y"]
-    muscles = np.where(_ADDITIVE, y, np.exp(y)) * scale
+    muscles = np.where(_ADDITIVE, y, np.exp(y)) * data.scale
     return PopulationFit(
         names=names,
         specs=tuple(specs),
-        scale=scale,
-        center=center,
-        center_offsets=center_offsets,
+        scale=data.scale,
+        center=data.center,
+        center_offsets=data.center_offsets,
         intercept=samples["intercept"],
         exponent=samples["exponent"],
         scatter=samples["scatter"],
@@ -273,4 +236,79 @@ def fit_population(
         wall_s=time.perf_counter() - start,
         cpu_s=time.process_time() - cpu,
         idata=idata,
+    )
+
+
+@dataclass(frozen=True)
+class _Design:
+    """The model's data: features and offsets centred on the population's mean, each muscle's
+    own fit scaled by ``scale`` and whitened (see the module docstring)."""
+
+    scale: np.ndarray  # (P,)
+    center: np.ndarray  # (F,)
+    center_offsets: np.ndarray  # (P,)
+    F: np.ndarray  # (n, F) centred features
+    Off: np.ndarray  # (n, P) centred offsets
+    m: np.ndarray  # (n, P) scaled means
+    W: np.ndarray  # (n, P, P) inverse Cholesky factors of the scaled covariances
+
+
+def _design(specs: tuple[MuscleSpec, ...], fits: tuple[MuscleFit, ...]) -> _Design:
+    scale = _scale(fits)
+    F_raw = feature_matrix(specs)
+    O_raw = np.array([offsets(s) for s in specs])
+    center, center_offsets = F_raw.mean(axis=0), O_raw.mean(axis=0)
+    m, W = _whiten(fits, scale)
+    return _Design(scale, center, center_offsets, F_raw - center, O_raw - center_offsets, m, W)
+
+
+def _sample(
+    engine: Engine,
+    data: _Design,
+    fits: tuple[MuscleFit, ...],
+    priors: Priors,
+    names: tuple[str, ...],
+) -> tuple[dict[str, np.ndarray], Any]:
+    """NUTS draws of every coordinate, and the ArviZ posterior (in 64-bit JAX)."""
+    import jax
+
+    expected = expected_matrix()
+    with jax.enable_x64(True):
+        k = _centring(fits, data.scale)
+        args = (
+            data.F,
+            data.Off,
+            data.W,
+            data.m,
+            k,
+            expected,
+            _ADDITIVE,
+            priors.exponent_sd,
+            priors.intercept_sd,
+            priors.scatter_sd,
+        )
+        mcmc = engine.run(args, _init(data.m, k, data.F, data.Off, expected), engine.sampler.seed)
+        samples = {k: np.asarray(v) for k, v in mcmc.get_samples().items()}
+        idata = _inference_data(mcmc, names)
+    return samples, idata
+
+
+def _inference_data(mcmc, names: tuple[str, ...]):
+    """The sampler's run as ArviZ InferenceData, its coordinates named."""
+    import arviz as az
+
+    return az.from_numpyro(
+        mcmc,
+        coords={
+            "parameter": list(PARAMETERS),
+            "feature": list(FEATURES),
+            "muscle": list(names),
+        },
+        dims={
+            "intercept": ["parameter"],
+            "exponent": ["parameter", "feature"],
+            "scatter": ["parameter"],
+            "y": ["muscle", "parameter"],
+            "y_k": ["muscle", "parameter"],
+        },
     )

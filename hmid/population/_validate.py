@@ -96,20 +96,7 @@ def leave_one_out(
         draws = fit.predict(out.spec, seed=sampler.seed + i)
         median = np.median(draws, axis=0)
         lo, hi = np.quantile(draws, lo_q, axis=0), np.quantile(draws, hi_q, axis=0)
-        for k, p in enumerate(PARAMETERS):
-            truth = None if out.truth is None else float(out.truth[k])
-            param_rows.append(
-                {
-                    "muscle": out.name,
-                    "parameter": p,
-                    "predicted": float(median[k]),
-                    "lower": float(lo[k]),
-                    "upper": float(hi[k]),
-                    "own fit": float(out.fit.mean[k]),
-                    "truth": truth,
-                    "covered": None if truth is None else bool(lo[k] <= truth <= hi[k]),
-                }
-            )
+        param_rows += _parameter_rows(out, median, lo, hi)
         row = {
             "muscle": out.name,
             "r_hat max": float(fit.diagnostics["r_hat"].max()),
@@ -117,27 +104,53 @@ def leave_one_out(
             "fit_s": fit.wall_s,
         }
         if forces:
-            own = held_out_rmse(out.model, out.logs, fraction)
-            spec = held_out_rmse(sls_document(out.model, "loo", median), out.logs, fraction)
-            mean = held_out_rmse(
-                sls_document(out.model, "mean", mean_model([m.fit for m in rest])),
-                out.logs,
-                fraction,
-            )
-            others = [held_out_rmse(m.model, out.logs, fraction) for m in rest]
-            row |= {
-                "own model RMSE [N]": own,
-                "from specs RMSE [N]": spec,
-                "population mean RMSE [N]": mean,
-                "one other muscle RMSE [N] (median)": float(np.median(others)),
-                "specs / own": spec / own,
-                "specs / one other": spec / float(np.median(others)),
-            }
-            if out.truth is not None:  # simulated: the build's exact law is the simulator's
-                exact = out.spec.params()
-                law = sls_document(
-                    out.model, "law", np.array([getattr(exact, p) for p in PARAMETERS])
-                )
-                row["exact law, no scatter RMSE [N]"] = held_out_rmse(law, out.logs, fraction)
+            row |= _force_columns(out, rest, median, fraction)
         forces_rows.append(row)
     return pd.DataFrame(forces_rows), pd.DataFrame(param_rows)
+
+
+def _parameter_rows(out: Member, median: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> list:
+    """The left-out muscle's parameters: predicted, interval, own fit, truth and covered."""
+    rows = []
+    for k, p in enumerate(PARAMETERS):
+        truth = None if out.truth is None else float(out.truth[k])
+        rows.append(
+            {
+                "muscle": out.name,
+                "parameter": p,
+                "predicted": float(median[k]),
+                "lower": float(lo[k]),
+                "upper": float(hi[k]),
+                "own fit": float(out.fit.mean[k]),
+                "truth": truth,
+                "covered": None if truth is None else bool(lo[k] <= truth <= hi[k]),
+            }
+        )
+    return rows
+
+
+def _force_columns(
+    out: Member, rest: tuple[Member, ...], median: np.ndarray, fraction: float
+) -> dict[str, float]:
+    """The left-out muscle's held-out force RMSE by each model: (a)-(d) of the module docstring."""
+    own = held_out_rmse(out.model, out.logs, fraction)
+    spec = held_out_rmse(sls_document(out.model, "loo", median), out.logs, fraction)
+    mean = held_out_rmse(
+        sls_document(out.model, "mean", mean_model([m.fit for m in rest])),
+        out.logs,
+        fraction,
+    )
+    others = [held_out_rmse(m.model, out.logs, fraction) for m in rest]
+    columns = {
+        "own model RMSE [N]": own,
+        "from specs RMSE [N]": spec,
+        "population mean RMSE [N]": mean,
+        "one other muscle RMSE [N] (median)": float(np.median(others)),
+        "specs / own": spec / own,
+        "specs / one other": spec / float(np.median(others)),
+    }
+    if out.truth is not None:  # simulated: the build's exact law is the simulator's
+        exact = out.spec.params()
+        law = sls_document(out.model, "law", np.array([getattr(exact, p) for p in PARAMETERS]))
+        columns["exact law, no scatter RMSE [N]"] = held_out_rmse(law, out.logs, fraction)
+    return columns
