@@ -110,6 +110,7 @@ def free_run_table(free_runs: dict, unit: str, position: str | None) -> pd.DataF
             "diverged": scores.get("diverged", 0),
             "first divergence [s]": np.nan if first is None else first,
             "note": run.skipped or "; ".join(sorted({r.reason for r in run.runs if r.reason} | (
+                {run.note} if run.note else set()) | (
                 {"band not calibrated: no disturbance scale reaches the level on the training "
                  "blocks"} if cal is not None and not cal.reachable else set()))),
         })  # fmt: skip

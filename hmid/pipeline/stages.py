@@ -420,9 +420,9 @@ def freerun(config: ExperimentConfig, split: Split, fit: list[Fitted], export: d
     """Every exported model run free over the held-out blocks (:mod:`hmid.portable.freerun`),
     by name; a model that cannot run free says why in one line."""
     from hmid.portable import Model
-    from hmid.portable.freerun import FreeRun, blocks, simulate_signals
+    from hmid.portable.freerun import FreeRun, blocks, simulate_signals, within_budget
 
-    spans = blocks(split.signals)
+    spans, note = within_budget(blocks(split.signals), split.signals.dt)
     training = blocks(split.signals, "train")  # the band's disturbance is calibrated there
     out: dict = {}
     # in this process: models of one shape share one compiled program, and compiling it (seconds)
@@ -440,7 +440,7 @@ def freerun(config: ExperimentConfig, split: Split, fit: list[Fitted], export: d
                       seed=config.seed, calibration=training)  # fmt: skip
         tasks.submit(run, Model(document, draws=draws), split.signals, spans)
     for run in tasks.results():
-        out[run.model] = run.thinned()  # scores of the whole runs; the figure's samples
+        out[run.model] = replace(run.thinned(), note=note)  # whole runs' scores; figure samples
     return out
 
 

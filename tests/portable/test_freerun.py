@@ -165,3 +165,15 @@ def test_a_run_that_overflows_is_a_divergence_without_numpy_warnings():
     assert away.diverged_at is not None and away.diverged_at < 0.01
     assert away.reason == "x left the measured range"  # non-finite: outside any range
     assert np.isnan(run.scores()["fit % (x)"])
+
+
+def test_a_long_logs_blocks_are_sampled_within_the_budget_and_said():
+    from hmid.portable.freerun import within_budget
+    from hmid.portable.freerun.run import FREE_RUN_BUDGET_S
+
+    spans = [np.arange(i * 20_000, i * 20_000 + 10_000) for i in range(40)]  # 40 blocks of 10 s
+    kept, note = within_budget(spans, 1e-3)
+    assert FREE_RUN_BUDGET_S == 60.0
+    assert [r[0] for r in kept] == [r[0] for r in spans[::7]]  # 6 blocks, 60 s: the least stride
+    assert note.startswith("free run on 6 of 40 held-out blocks (every 7th")
+    assert within_budget(spans[:3], 1e-3) == (spans[:3], "")

@@ -13,7 +13,7 @@ blocks.
 from hmid.portable.freerun.band import Calibration, calibrate, coefficient_draws, disturbances
 from hmid.portable.freerun.equation import Equation, NotSimulable, equation
 from hmid.portable.freerun.integrator import Simulator, Trajectory, simulator
-from hmid.portable.freerun.run import blocks, chunks, free_run, simulate_signals
+from hmid.portable.freerun.run import blocks, chunks, free_run, simulate_signals, within_budget
 from hmid.portable.freerun.scores import BlockRun, FreeRun
 
 __all__ = [
@@ -33,4 +33,5 @@ __all__ = [
     "free_run",
     "simulate_signals",
     "simulator",
+    "within_budget",
 ]

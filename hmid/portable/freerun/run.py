@@ -40,6 +40,30 @@ def blocks(signals, role: str = "validation") -> list[np.ndarray]:
     return out
 
 
+#: Held-out time a model runs free for, at most (s): a free run costs in proportion to the time
+#: it simulates, and its scores settle within tens of blocks; a long log's blocks are sampled
+FREE_RUN_BUDGET_S = 60.0
+
+
+def within_budget(spans: list[np.ndarray], dt: float) -> tuple[list[np.ndarray], str]:
+    """Every ``stride``-th span, the least stride whose spans last at most
+    :data:`FREE_RUN_BUDGET_S` (evenly spread over the log: the same blocks every run), and what
+    was left out, in words ("" when every span is kept)."""
+    total = sum(len(rows) for rows in spans) * dt
+    if total <= FREE_RUN_BUDGET_S:
+        return spans, ""
+    for stride in range(2, len(spans) + 1):
+        kept = spans[::stride]
+        if sum(len(rows) for rows in kept) * dt <= FREE_RUN_BUDGET_S:
+            break
+    else:
+        kept = spans[:1]
+    return kept, (
+        f"free run on {len(kept)} of {len(spans)} held-out blocks (every {stride}th: at most "
+        f"{FREE_RUN_BUDGET_S:g} s of held-out time per model; {total:.0f} s in all)"
+    )
+
+
 def chunks(spans: list[np.ndarray], length: int) -> list[np.ndarray]:
     """``spans`` cut into runs of ``length`` rows (the remainder a shorter run; at least ten
     rows each): the training blocks as long as the held-out ones, so that the band is

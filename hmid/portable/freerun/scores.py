@@ -44,6 +44,7 @@ class FreeRun:
     band: str = ""  # what the band is made of
     kept_scores: dict | None = None  # the scores of the whole runs, once they are thinned
     calibration: Calibration | None = None  # the band's disturbance scale, from training blocks
+    note: str = ""  # how the blocks were chosen, where not all of them run
 
     def thinned(self, points: int = 1500) -> FreeRun:
         """The same runs at most ``points`` samples each, for a figure, with the scores of the
