@@ -188,10 +188,15 @@ def _resonances(study: Study) -> str:
     if not said:
         return "The linearised plants have no oscillatory mode."
     return (
-        "; ".join(said).capitalize() + ". A lightly damped mode behind the valve's lag limits "
+        _sentence("; ".join(said)) + ". A lightly damped mode behind the valve's lag limits "
         "how stiff a PD can be with these margins: the loop must cross over below it, and the "
         "model's feed-forward does the tracking there."
     )
+
+
+def _sentence(text: str) -> str:
+    """``text`` with a capital first letter (str.capitalize would lower "Hz")."""
+    return text[:1].upper() + text[1:]
 
 
 def _on_off_section(study: Study, config: ControlConfig) -> Section:
