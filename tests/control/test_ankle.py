@@ -9,12 +9,16 @@ from pathlib import Path
 import control
 import numpy as np
 import pytest
+import yaml
 
 from hmid.config import load_yaml_model
 from hmid.control import feedforward, reference, track, tune
 from hmid.control.actuation import Switching
 from hmid.control.ankle import AnkleRig, FibreLaws, full_torque, recruit
+from hmid.control.ankle_study import ankle_plant
+from hmid.control.config import load_control_config
 from hmid.control.tuning import closed_loop_poles, closed_poles, pd_transfer
+from hmid.errors import ConfigError
 from hmid.simulate.rigs.ankle_params import AnkleParams
 from hmid.simulate.rigs.hydro_muscle_dataset import HydroMuscleDataset
 from hmid.simulate.valves import ProportionalValve
@@ -111,3 +115,22 @@ def test_the_fibre_data_sets_mount_the_ankles_own_muscle(fibre):
     build = getattr(AnkleParams(), fibre).spec.params()
     for name, value in build.model_dump().items():
         assert getattr(dataset.rig.muscle, name) == pytest.approx(value, rel=1e-12), name
+
+
+def test_a_config_recruits_for_its_torque_or_engages_the_named_fibres(tmp_path):
+    shipped = ROOT / "configs/control/ankle.yaml"
+    config = yaml.safe_load(shipped.read_text())
+    config["ankle"]["plant"] = str(shipped.parent / "ankle-plant.yaml")
+    path = tmp_path / "ankle.yaml"
+    named = config | {"ankle": config["ankle"] | {"engaged": ["soleus 2"]}}
+    path.write_text(yaml.safe_dump(named))
+    assert ankle_plant(load_control_config(path)).engaged == (False, False, False, True, False)
+    torque = config | {"ankle": {**config["ankle"], "engaged": None, "torque": 1.0}}
+    path.write_text(yaml.safe_dump(torque))
+    params = AnkleParams()
+    plant = ankle_plant(load_control_config(path), FibreLaws.perfect(params))
+    assert sum(plant.engaged) == 1
+    bad = config | {"ankle": config["ankle"] | {"engaged": ["tibialis 1"]}}
+    path.write_text(yaml.safe_dump(bad))
+    with pytest.raises(ConfigError, match="not active fibres"):
+        load_control_config(path)
