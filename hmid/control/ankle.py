@@ -21,8 +21,9 @@ and so are the PD's gains). :class:`AnkleRig` adapts it to :class:`~hmid.control
 * ``linear``: the same balance linearised at the reference's start (angle, rate, the fibres'
   Maxwell arms, the valve's lag) for the tuning rule.
 
-:func:`recruit` chooses the engaged fibres for a demanded torque: the fewest whose full torque
-(vented, by the identified models) reaches it over the task's angles.
+:func:`recruit` chooses the engaged fibres for a demanded torque and stiffness: the fewest whose
+full torque and joint stiffness (vented, by the identified models) reach them over the task's
+angles (the thesis varies the ankle's stiffness by recruitment).
 """
 
 from __future__ import annotations
@@ -305,15 +306,36 @@ def full_torque(plant: AnkleRig, laws: FibreLaws, engaged: Sequence[int], theta)
     return total
 
 
-def recruit(plant: AnkleRig, laws: FibreLaws, torque: float, theta) -> tuple[bool, ...]:
-    """The fewest active fibres whose full torque (by the models) reaches ``torque`` (N m) at
-    every angle of ``theta``; of equal counts the strongest. ValueError if all cannot."""
+def joint_stiffness(
+    plant: AnkleRig, laws: FibreLaws, engaged: Sequence[int], theta, h: float = 1e-4
+) -> np.ndarray:
+    """The joint's rotational stiffness (N m/rad) with the ``engaged`` fibres vented, by the
+    models, at rest at the angles ``theta``: -d torque / d theta, the passive tibialis in."""
+    theta = np.atleast_1d(np.asarray(theta, dtype=float))
+    fibres = (*engaged, *range(plant.params.n_active, plant.params.n_fibres))
+    up, down = (full_torque(plant, laws, fibres, theta + d) for d in (h, -h))
+    return -(up - down) / (2 * h)
+
+
+def recruit(
+    plant: AnkleRig, laws: FibreLaws, torque: float, theta, stiffness: float = 0.0
+) -> tuple[bool, ...]:
+    """The fewest active fibres whose full torque (vented, by the models) reaches ``torque``
+    (N m) and whose joint stiffness reaches ``stiffness`` (N m/rad) at every angle of
+    ``theta``; of equal counts the strongest. ValueError if all together cannot."""
     n = plant.params.n_active
+
+    def margin(fibres) -> float:
+        reach = full_torque(plant, laws, fibres, theta).min() - torque
+        stiff = joint_stiffness(plant, laws, fibres, theta).min() - stiffness
+        return min(reach / max(abs(torque), 1.0), stiff / max(stiffness, 1.0))
+
     for count in range(1, n + 1):
-        best = max(itertools.combinations(range(n), count),
-                   key=lambda s: full_torque(plant, laws, s, theta).min())  # fmt: skip
-        if full_torque(plant, laws, best, theta).min() >= torque:
+        best = max(itertools.combinations(range(n), count), key=margin)
+        if margin(best) >= 0:
             return tuple(i in best for i in range(n))
     reach = full_torque(plant, laws, range(n), theta).min()
-    raise ValueError(f"a torque of {torque} N m is beyond every fibre together ({reach:.3g} "
-                     "N m over the task's angles)")  # fmt: skip
+    stiff = joint_stiffness(plant, laws, range(n), theta).min()
+    raise ValueError(f"a torque of {torque} N m and a stiffness of {stiffness} N m/rad are beyond "
+                     f"every fibre together ({reach:.3g} N m, {stiff:.3g} N m/rad over the "
+                     "task's angles)")  # fmt: skip

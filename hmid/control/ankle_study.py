@@ -28,7 +28,7 @@ from hmid.simulate.specs import Scatter
 
 def ankle_plant(config: ControlConfig, laws: FibreLaws | None = None) -> AnkleRig:
     """The configured ankle with the proportional valve and its engaged fibres (named, or
-    recruited for the torque by ``laws``)."""
+    recruited for the torque and stiffness by ``laws``)."""
     section = config.ankle
     assert section is not None
     params = section.params(config.base_dir)
@@ -37,9 +37,10 @@ def ankle_plant(config: ControlConfig, laws: FibreLaws | None = None) -> AnkleRi
     if section.engaged is not None:
         engaged = tuple(name in section.engaged for name in params.fibre_names[: params.n_active])
     else:
-        assert laws is not None and section.torque is not None
+        assert laws is not None
         angles = [math.radians(a) for a in (section.low_deg, section.high_deg)]
-        engaged = recruit(everything, laws, section.torque, angles)
+        engaged = recruit(everything, laws, section.torque or 0.0, angles,
+                          section.stiffness or 0.0)  # fmt: skip
     return AnkleRig(everything.params, engaged, realisation=everything.realisation,
                     rate=config.rate, substeps=section.substeps)  # fmt: skip
 

@@ -70,14 +70,16 @@ FIBRE_TYPES = ("gastrocnemius", "soleus")
 class AnkleSection(_Strict):
     """The Ch. 6 ankle as the plant: its YAML (:class:`~hmid.simulate.rigs.ankle_params.
     AnkleParams`), a model per active fibre type, which fibres are engaged (named, or the fewest
-    whose full torque by the models reaches ``torque`` N m over the task's angles), the task's
+    whose full torque and joint stiffness by the models reach ``torque`` N m and ``stiffness``
+    N m/rad over the task's angles), the task's
     angles (deg, + plantarflexion), the proportional valve, and manufactured fibres drawn with
     the build's scatter for the robustness study."""
 
     plant: Path = Path("ankle-plant.yaml")
     models: dict[Literal["gastrocnemius", "soleus"], ModelSection]
     engaged: tuple[str, ...] | None = None
-    torque: Positive | None = None
+    torque: Positive | None = None  # N m
+    stiffness: Positive | None = None  # N m/rad
     low_deg: float = 0.0
     high_deg: float = 20.0
     substeps: Annotated[int, Field(ge=1, le=100)] = 10
@@ -89,8 +91,10 @@ class AnkleSection(_Strict):
         missing = [name for name in FIBRE_TYPES if name not in self.models]
         if missing:
             raise ValueError(f"models: give a model for {missing}")
-        if (self.engaged is None) == (self.torque is None):
-            raise ValueError("give the engaged fibres (engaged) or a torque to recruit for")
+        if (self.engaged is None) == (self.torque is None and self.stiffness is None):
+            raise ValueError(
+                "give the engaged fibres (engaged) or a torque and/or stiffness to recruit for"
+            )
         if not -20.0 <= self.low_deg < self.high_deg <= 40.0:
             raise ValueError(f"low_deg={self.low_deg}, high_deg={self.high_deg}: want "
                              "-20 <= low < high <= 40 (the end stops)")  # fmt: skip

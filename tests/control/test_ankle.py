@@ -14,7 +14,7 @@ import yaml
 from hmid.config import load_yaml_model
 from hmid.control import feedforward, reference, track, tune
 from hmid.control.actuation import Switching
-from hmid.control.ankle import AnkleRig, FibreLaws, full_torque, recruit
+from hmid.control.ankle import AnkleRig, FibreLaws, full_torque, joint_stiffness, recruit
 from hmid.control.ankle_study import ankle_plant
 from hmid.control.config import load_control_config
 from hmid.control.tuning import closed_loop_poles, closed_poles, pd_transfer
@@ -83,7 +83,7 @@ def test_the_ankle_answers_a_small_step_as_the_linear_loop_predicts():
     assert np.max(np.abs(rig[:-1] - linear[1:])) < 0.1 * np.max(np.abs(linear))
 
 
-def test_recruitment_takes_the_fewest_fibres_that_reach_the_torque():
+def test_recruitment_takes_the_fewest_fibres_that_reach_the_torque_and_stiffness():
     plant, law = _plant(), FibreLaws.perfect(FRICTIONLESS)
     angles = np.radians([0.0, 20.0])
     one = recruit(plant, law, 1.0, angles)
@@ -94,6 +94,13 @@ def test_recruitment_takes_the_fewest_fibres_that_reach_the_torque():
     assert more == sorted(more)
     with pytest.raises(ValueError, match="beyond every fibre"):
         recruit(plant, law, 1.1 * every, angles)
+    stiffest = joint_stiffness(plant, law, range(5), angles).min()
+    assert (
+        joint_stiffness(plant, law, (2, 3), angles).min()
+        > joint_stiffness(plant, law, (2,), angles).max()
+    )  # a superset is stiffer (thesis Ch. 6)
+    by_stiffness = [sum(recruit(plant, law, 0.0, angles, f * stiffest)) for f in (0.1, 0.5, 0.9)]
+    assert by_stiffness == sorted(by_stiffness) and by_stiffness[-1] == 5
 
 
 def test_disengaged_fibres_stay_filled_and_on_off_valves_switch_per_fibre():
