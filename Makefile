@@ -4,7 +4,8 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint demo-data linear-motor-data bench calibration blind study control clean
+.PHONY: demo test lint demo-data linear-motor-data bench calibration blind study control \
+	fibre-models control-ankle clean
 
 # setuptools' "Editable installation" warning is about folders named like the package in the
 # working directory: none here, and a user can do nothing about it
@@ -56,6 +57,17 @@ blind: $(STAMP)
 ## control: model-based control of the simulated Ch. 4 rig with the demo's model (after make demo)
 control: $(STAMP)
 	$(BIN)/hmid control configs/control/muscle.yaml
+
+## fibre-models: the ankle's fibre models: each fibre type simulated on the Ch. 4 rig, identified
+fibre-models: $(STAMP)
+	$(BIN)/hmid simulate configs/simulate/fibre-gastrocnemius.yaml --out data/fibre-gastrocnemius --replace
+	$(BIN)/hmid simulate configs/simulate/fibre-soleus.yaml --out data/fibre-soleus --replace
+	$(BIN)/hmid run configs/fibre-gastrocnemius.yaml
+	$(BIN)/hmid run configs/fibre-soleus.yaml
+
+## control-ankle: model-based control of the simulated Ch. 6 ankle with the fibre models
+control-ankle: fibre-models
+	$(BIN)/hmid control configs/control/ankle.yaml
 
 ## study: the pneumatic cylinder's three seals on the measured logs (skips if ../shared is absent)
 study: $(STAMP)

@@ -6,9 +6,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import hmid
-from hmid.control.config import ControlConfig, load_control_config
+from hmid.control.config import DEMO, FIBRES, ControlConfig, ModelSection, load_control_config
 from hmid.control.inverse import ForceLaw
 from hmid.control.report import figures, report, tables
 from hmid.control.study import Study, run_study
@@ -25,31 +26,49 @@ def run(
 ) -> tuple[Path, dict]:
     """Run the control study of ``config_path``; returns the run folder and its metrics."""
     config = load_control_config(config_path)
-    folder_of_run = config.run_folder()
-    model = hmid.load_run(folder_of_run).models.get(config.model.name)
-    if model is None or model.path is None:
-        names = sorted(hmid.load_run(folder_of_run).models)
-        raise hmid.ConfigError(
-            f"{config_path}: model.name {config.model.name!r} is not a model of "
-            f"{folder_of_run} (it has {names})"
-        )
-    ForceLaw.of(model)  # a model without an inverse is said before a run folder is made
-    inputs = [model.path]
-    if model.document.get("posterior"):  # the robustness study's draws
-        inputs.append(model.path.parent / model.document["posterior"])
+    models: dict[str, Any]
+    if config.ankle is not None:
+        models = {name: _model(section, config, config_path, FIBRES)
+                  for name, section in config.ankle.models.items()}  # fmt: skip
+        study_model: Any = models
+    else:
+        assert config.model is not None
+        models = {"muscle": _model(config.model, config, config_path, DEMO)}
+        study_model = models["muscle"]
+    inputs = []
+    for model in models.values():
+        ForceLaw.of(model)  # a model without an inverse is said before a run folder is made
+        inputs.append(model.path)
+        if model.document.get("posterior"):  # the robustness study's draws
+            inputs.append(model.path.parent / model.document["posterior"])
     with open_run(results, config.name, config_path, config_json(config), config.seed,
                   inputs) as folder:  # fmt: skip
         with folder.manifest.stage("study"):
-            study = run_study(config, model, progress)
+            study = run_study(config, study_model, progress)
         with folder.manifest.stage("report"):
-            metrics = _write(study, config, folder.path, model.path)
+            metrics = _write(study, config, folder.path, [m.path for m in models.values()])
             document = report(study, config, folder.path, metrics, folder.provenance())
             write_report(document, folder.path)
             write_json(folder.path / "metrics.json", metrics)
         return folder.path, metrics
 
 
-def _write(study: Study, config: ControlConfig, run_dir: Path, model_path: Path) -> dict:
+def _model(section: ModelSection, config: ControlConfig, config_path: Path, hint: str):
+    """The model a config's model section names (a one-line ConfigError if it is not there)."""
+    if section.path is not None:
+        return hmid.load_model(config.base_dir / section.path)
+    folder_of_run = section.run_folder(config.base_dir, hint)
+    model = hmid.load_run(folder_of_run).models.get(section.name)
+    if model is None or model.path is None:
+        names = sorted(hmid.load_run(folder_of_run).models)
+        raise hmid.ConfigError(
+            f"{config_path}: model.name {section.name!r} is not a model of "
+            f"{folder_of_run} (it has {names})"
+        )
+    return model
+
+
+def _write(study: Study, config: ControlConfig, run_dir: Path, model_paths: list) -> dict:
     frames = tables(study)
     for name, frame in frames.items():
         path = run_dir / "tables" / f"{name}.csv"
@@ -60,7 +79,9 @@ def _write(study: Study, config: ControlConfig, run_dir: Path, model_path: Path)
     proportional = targets[targets["valves"] == "proportional"]
     return {
         "model": study.model,
-        "model_file": str(model_path),
+        "model_file": str(model_paths[0])
+        if len(model_paths) == 1
+        else [str(p) for p in model_paths],
         "valves": list(study.valves),
         "targets": {
             "reduction_met_proportional": bool(proportional["met (>= 50 %)"].all()),

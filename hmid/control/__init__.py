@@ -7,7 +7,8 @@ from the model's inverse dynamics plus feedback. This package runs that on the s
 * :mod:`~hmid.control.inverse`: a loaded model solved for the pressure a motion or force needs;
 * :mod:`~hmid.control.actuation`: a pressure command on proportional or on/off valves;
 * :mod:`~hmid.control.tuning`: the PD's tuning rule on the linearised plant (python-control);
-* :mod:`~hmid.control.plant`: the seam to a rig (the Ch. 4 rig's adaptor; the ankle's next);
+* :mod:`~hmid.control.plant`: the seam to a rig (the Ch. 4 rig's adaptor);
+  :mod:`~hmid.control.ankle`: the Ch. 6 ankle's (recruitment, the joint's balance inverted);
 * :mod:`~hmid.control.references`, :mod:`~hmid.control.experiments`,
   :mod:`~hmid.control.metrics`, :mod:`~hmid.control.robustness`: the tasks, one run, its
   scores, the perturbed plants;
@@ -24,6 +25,7 @@ from hmid._lazy import lazy_exports
 
 if TYPE_CHECKING:
     from hmid.control.actuation import PWM, Proportional, Switching, switchings
+    from hmid.control.ankle import AnkleRig, FibreLaws, recruit
     from hmid.control.config import ControlConfig, load_control_config
     from hmid.control.controllers import PD, Tracker
     from hmid.control.experiments import Tracking, feedforward, track
@@ -39,6 +41,9 @@ _LAZY = {
     "Proportional": "hmid.control.actuation",
     "Switching": "hmid.control.actuation",
     "switchings": "hmid.control.actuation",
+    "AnkleRig": "hmid.control.ankle",
+    "FibreLaws": "hmid.control.ankle",
+    "recruit": "hmid.control.ankle",
     "ControlConfig": "hmid.control.config",
     "load_control_config": "hmid.control.config",
     "PD": "hmid.control.controllers",
@@ -62,7 +67,9 @@ _LAZY = {
 __all__ = [
     "PD",
     "PWM",
+    "AnkleRig",
     "ControlConfig",
+    "FibreLaws",
     "ForceLaw",
     "Metrics",
     "MuscleRig",
@@ -78,6 +85,7 @@ __all__ = [
     "TuningError",
     "feedforward",
     "load_control_config",
+    "recruit",
     "reference",
     "run_study",
     "switchings",

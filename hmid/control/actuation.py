@@ -86,8 +86,11 @@ Actuation = Proportional | Switching | PWM
 
 def switchings(valve: np.ndarray) -> int:
     """Valve operations in a run's on/off commands: every opening and every closing of the
-    inlet (command > 0) and of the outlet (command < 0), from both shut."""
+    inlet (command > 0) and of the outlet (command < 0), from both shut; summed over the
+    columns of several valves' commands (samples x valves)."""
     valve = np.asarray(valve, dtype=float)
+    if valve.ndim == 2:
+        return sum(switchings(column) for column in valve.T)
     count = 0
     for open_ in (valve > 0, valve < 0):
         state = np.concatenate([[False], open_])

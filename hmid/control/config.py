@@ -3,7 +3,10 @@
 Validated by pydantic at load time: an unknown key or a bad value is a one-line
 :class:`~hmid.errors.ConfigError` naming the key. Paths are relative to the config file's
 folder. ``model.run`` is a run folder of ``hmid run`` (``results/demo/<run-id>``) or an
-experiment's folder (``results/demo``: its newest complete run).
+experiment's folder (``results/demo``: its newest complete run); ``model.path`` a model file.
+
+The plant is the Ch. 4 rig (``model``, ``rig``, ``tasks``) or, with an ``ankle`` section
+instead of ``model``, the multi-fibre ankle of thesis Ch. 6 with a model per fibre type.
 """
 
 from __future__ import annotations
@@ -20,7 +23,8 @@ from hmid.control.references import KINDS, Kind
 from hmid.errors import ConfigError
 from hmid.simulate.effects import make_effect
 from hmid.simulate.params import RigParams
-from hmid.simulate.valves import OnOffValves
+from hmid.simulate.rigs.ankle_params import AnkleParams, load_ankle_params
+from hmid.simulate.valves import OnOffValves, ProportionalValve
 
 Positive = Annotated[float, Field(gt=0)]
 
@@ -29,12 +33,75 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
+DEMO = "run `make demo` (or `hmid run configs/demo.yaml`) first"
+FIBRES = "run `make fibre-models` (hmid simulate + hmid run of configs/fibre-*.yaml) first"
+
+
 class ModelSection(_Strict):
     """The identified model the controller inverts (and whose posterior the plant is drawn
-    from)."""
+    from): ``name`` in the run folder ``run``, or the model file ``path``."""
 
-    run: Path
+    run: Path | None = None
     name: str = "sls"
+    path: Path | None = None
+
+    @model_validator(mode="after")
+    def _one(self) -> ModelSection:
+        if (self.run is None) == (self.path is None):
+            raise ValueError("give the model's run folder (run) or its file (path), one of them")
+        return self
+
+    def run_folder(self, base_dir: Path, hint: str = DEMO) -> Path:
+        """The run folder: the one named, or the newest complete run under it."""
+        assert self.run is not None
+        path = (base_dir / self.run).resolve()
+        if (path / "metrics.json").is_file():
+            return path
+        runs = sorted(p.parent for p in path.glob("*/metrics.json")) if path.is_dir() else []
+        complete = [p for p in runs if _complete(p)]
+        if not complete:
+            raise ConfigError(f"model.run {path}: no finished run of hmid there; {hint}")
+        return complete[-1]
+
+
+FIBRE_TYPES = ("gastrocnemius", "soleus")
+
+
+class AnkleSection(_Strict):
+    """The Ch. 6 ankle as the plant: its YAML (:class:`~hmid.simulate.rigs.ankle_params.
+    AnkleParams`), a model per active fibre type, which fibres are engaged (named, or the fewest
+    whose full torque and joint stiffness by the models reach ``torque`` N m and ``stiffness``
+    N m/rad over the task's angles), the task's
+    angles (deg, + plantarflexion), the proportional valve, and manufactured fibres drawn with
+    the build's scatter for the robustness study."""
+
+    plant: Path = Path("ankle-plant.yaml")
+    models: dict[Literal["gastrocnemius", "soleus"], ModelSection]
+    engaged: tuple[str, ...] | None = None
+    torque: Positive | None = None  # N m
+    stiffness: Positive | None = None  # N m/rad
+    low_deg: float = 0.0
+    high_deg: float = 20.0
+    substeps: Annotated[int, Field(ge=1, le=100)] = 10
+    proportional: ProportionalValve = ProportionalValve()
+    scatter_draws: Annotated[int, Field(ge=0, le=10000)] = 0
+
+    @model_validator(mode="after")
+    def _check(self) -> AnkleSection:
+        missing = [name for name in FIBRE_TYPES if name not in self.models]
+        if missing:
+            raise ValueError(f"models: give a model for {missing}")
+        if (self.engaged is None) == (self.torque is None and self.stiffness is None):
+            raise ValueError(
+                "give the engaged fibres (engaged) or a torque and/or stiffness to recruit for"
+            )
+        if not -20.0 <= self.low_deg < self.high_deg <= 40.0:
+            raise ValueError(f"low_deg={self.low_deg}, high_deg={self.high_deg}: want "
+                             "-20 <= low < high <= 40 (the end stops)")  # fmt: skip
+        return self
+
+    def params(self, base_dir: Path) -> AnkleParams:
+        return load_ankle_params(base_dir / self.plant)
 
 
 class TaskSection(_Strict):
@@ -98,7 +165,8 @@ class ControlConfig(_Strict):
 
     name: str
     seed: Annotated[int, Field(ge=0)] = 0
-    model: ModelSection
+    model: ModelSection | None = None
+    ankle: AnkleSection | None = None
     rig: RigParams = RigParams()
     rate: Positive = 1000.0
     duration: Annotated[float, Field(gt=0, le=600)] = 4.0
@@ -115,6 +183,14 @@ class ControlConfig(_Strict):
 
     @model_validator(mode="after")
     def _timing(self) -> ControlConfig:
+        if (self.model is None) == (self.ankle is None):
+            raise ValueError("give a model (the Ch. 4 rig) or an ankle section, one of them")
+        if self.ankle is not None and self.ankle.engaged is not None:
+            params = self.ankle.params(self.base_dir)
+            active = params.fibre_names[: params.n_active]
+            unknown = [n for n in self.ankle.engaged if n not in active]
+            if unknown or not self.ankle.engaged:
+                raise ValueError(f"ankle.engaged: {unknown} are not active fibres {active}")
         if self.step_at + self.transition >= self.duration:
             raise ValueError(
                 f"step_at + transition = {self.step_at + self.transition} s must end before "
@@ -124,15 +200,8 @@ class ControlConfig(_Strict):
 
     def run_folder(self) -> Path:
         """The model's run folder: the one named, or the newest complete run under it."""
-        path = (self.base_dir / self.model.run).resolve()
-        hint = "run `make demo` (or `hmid run configs/demo.yaml`) first"
-        if (path / "metrics.json").is_file():
-            return path
-        runs = sorted(p.parent for p in path.glob("*/metrics.json")) if path.is_dir() else []
-        complete = [p for p in runs if _complete(p)]
-        if not complete:
-            raise ConfigError(f"model.run {path}: no finished run of hmid there; {hint}")
-        return complete[-1]
+        assert self.model is not None
+        return self.model.run_folder(self.base_dir)
 
 
 def _complete(folder: Path) -> bool:

@@ -92,13 +92,12 @@ def track(
     noise = plant.noise * np.random.default_rng(seed).standard_normal(n)
     references = {"r": ref.y[:-1], "ff": ff.commands, "noise": noise}
     traj, commands = closed_loop(
-        plant.rig(), tracker(plant, tuning, controller), references, plant.rate,
+        plant.rig(ff.start), tracker(plant, tuning, controller), references, plant.rate,
         initial_inputs=plant.inputs(n, ff.start), initial_outputs=plant.outputs(ff.start),
+        substeps=plant.substeps,
     )  # fmt: skip
     output = getattr(traj, plant.tracked)
-    valve = commands.get("valve")
-    effort = commands.get("P_cmd", ff.commands)
+    effort, pressure, valve = plant.commanded(traj, commands, ff)
     metrics = score(ref, traj.t, output, plant.resolution, valve)
-    pressure = traj.signals.get("P", np.full(n, np.nan))
     return Tracking(controller, ref, traj.t, output, ff.demand[1:], effort, pressure, valve,
                     metrics)  # fmt: skip

@@ -7,16 +7,14 @@ and outputs at the start, the feed-forward an identified model gives along a ref
 plant linearised for the tuning rule. :class:`MuscleRig` adapts the thesis Ch. 4 rig, for force
 tracking (block clamped: the muscle's force at a fixed length) and for position tracking.
 
-A new rig is a new adaptor of about this size. For the multi-fibre ankle
-(``hmid.simulate.rigs.ankle``): ``tracked`` is the potentiometer's angle, ``effort`` a pressure
-given to the engaged fibres (its :attr:`actuation` maps one effort onto every engaged fibre's
-``P_cmd`` or on/off valves: the recruitment), ``feedforward`` solves the joint's torque balance
-J a + load = sum of moment arm(angle) x fibre force(model, P) for P, and ``linear`` linearises
-the same balance; nothing else in :mod:`hmid.control` changes.
+A new rig is a new adaptor of about this size: the multi-fibre ankle's is
+:class:`hmid.control.ankle.AnkleRig` (the potentiometer's angle tracked, one pressure to the
+engaged fibres, the joint's torque balance inverted and linearised).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal, Protocol
 
@@ -27,7 +25,7 @@ from hmid.control.inverse import ForceLaw, lead
 from hmid.control.references import Reference
 from hmid.simulate.effects import Effect
 from hmid.simulate.params import MuscleParams, RigParams, Sensors
-from hmid.simulate.rig import SimulatedRig
+from hmid.simulate.rig import SimulatedRig, Trajectory
 from hmid.simulate.rigs.hydro_muscle import HydroMuscle
 from hmid.simulate.valves import OnOffValves
 
@@ -54,25 +52,33 @@ class Plant(Protocol):
     def rate(self) -> float: ...  # Hz, the controller's and the log's
 
     @property
-    def actuation(self) -> Actuation: ...  # one effort -> the rig's input commands
+    def substeps(self) -> int: ...  # the rig's integration steps per sample
 
-    def rig(self) -> SimulatedRig: ...
+    @property
+    def actuation(self) -> Any: ...  # one effort -> the rig's input commands (an Actuation)
+
+    def rig(self, effort0: float = 0.0) -> SimulatedRig: ...  # at rest with the effort effort0
 
     def inputs(self, n: int, effort0: float) -> dict[str, np.ndarray]: ...
 
     def outputs(self, effort0: float) -> dict[str, float]: ...
 
-    def demand(self, law: ForceLaw, ref: Reference) -> np.ndarray: ...
+    def commanded(
+        self, traj: Trajectory, commands: Mapping[str, np.ndarray], ff: Any
+    ) -> tuple: ...  # (effort per command, the pressure, the on/off valves' commands or None)
 
-    def feedforward(self, law: ForceLaw, ref: Reference, valve_tau: float) -> np.ndarray: ...
+    # ``law``: the plant's model (a ForceLaw; for the ankle the fibres' laws)
+    def demand(self, law: Any, ref: Reference) -> np.ndarray: ...
 
-    def hold(self, law: ForceLaw, ref: Reference) -> float: ...
+    def feedforward(self, law: Any, ref: Reference, valve_tau: float) -> np.ndarray: ...
 
-    def linear(self, law: ForceLaw, ref: Reference, valve_tau: float) -> Any: ...
+    def hold(self, law: Any, ref: Reference) -> float: ...
 
-    def with_muscle(self, muscle: MuscleParams) -> Plant: ...
+    def linear(self, law: Any, ref: Reference, valve_tau: float) -> Any: ...
 
     def with_effects(self, effects: tuple[Effect, ...]) -> Plant: ...
+
+    def with_on_off(self, valves: OnOffValves, actuation: Actuation) -> Plant: ...
 
 
 #: The Ch. 4 rig's outputs (what the controller may read) before the first sample
@@ -110,7 +116,7 @@ class MuscleRig:
         sensors = Sensors()  # the demo's 10-bit sensors: 0.01 N, 0.02 mm
         return sensors.F.lsb if self.task == "force" else sensors.x.lsb
 
-    def rig(self) -> HydroMuscle:
+    def rig(self, effort0: float = 0.0) -> HydroMuscle:
         x0 = self.hold_at if self.task == "force" else None
         return HydroMuscle(self.params, self.effects, x0=x0, valves=self.valves)
 
@@ -121,6 +127,11 @@ class MuscleRig:
     def outputs(self, effort0: float) -> dict[str, float]:
         """What the controller reads before the first sample: the rig at rest at the start."""
         return self.rig().initial_outputs(self.inputs(2, effort0), self.rate)
+
+    def commanded(self, traj: Trajectory, commands: Mapping[str, np.ndarray], ff: Any) -> tuple:
+        """(the effort per command, the pressure, the on/off valve's commands or None)."""
+        effort = commands.get("P_cmd", ff.commands)
+        return effort, traj.signals.get("P", np.full(len(traj.t), np.nan)), commands.get("valve")
 
     def demand(self, law: ForceLaw, ref: Reference) -> np.ndarray:
         """The pressure the model says the reference needs, at the sample instants (the
@@ -188,3 +199,6 @@ class MuscleRig:
 
     def with_effects(self, effects: tuple[Effect, ...]) -> MuscleRig:
         return replace(self, effects=tuple(effects))
+
+    def with_on_off(self, valves: OnOffValves, actuation: Actuation) -> MuscleRig:
+        return replace(self, valves=valves, actuation=actuation)

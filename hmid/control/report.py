@@ -69,8 +69,7 @@ def figures(study: Study, run_dir: Path) -> None:
             kinds = list(task.spreads)
             fig, axes = plt.subplots(len(kinds), 1, figsize=(7, 1.9 * len(kinds)), sharex=True,
                                      squeeze=False)  # fmt: skip
-            scale = 1e3 if task.unit == "m" else 1.0
-            unit = "mm" if task.unit == "m" else task.unit
+            scale, unit = _display(task.unit)
             for ax, kind in zip(axes[:, 0], kinds, strict=True):
                 ref = task.runs[(kind, valves, "PD")].reference
                 ax.plot(ref.t, ref.y * scale, "k--", lw=1, label="reference")
@@ -87,6 +86,30 @@ def figures(study: Study, run_dir: Path) -> None:
             name = "proportional" if valves == "proportional" else "on_off"
             fig.savefig(_figure_dir(run_dir) / f"{task.task}_{name}.png", dpi=90)
             plt.close(fig)
+
+
+def _display(unit: str) -> tuple[float, str]:
+    """(scale, unit) a tracked unit is plotted and said in: mm for m, deg for rad."""
+    return {"m": (1e3, "mm"), "rad": (180 / np.pi, "deg")}.get(unit, (1.0, unit))
+
+
+def _resolutions(study: Study) -> str:
+    said = []
+    for task in study.tasks:
+        scale, unit = _display(task.unit)
+        said.append(f"{task.task} {task.resolution * scale:.3g} {unit}")
+    return "Sensor resolution: " + ", ".join(said) + "."
+
+
+def _directions(study: Study) -> str:
+    """The ankle's steps by direction, in words."""
+    if not any(task.task == "angle" for task in study.tasks):
+        return ""
+    return (
+        " On the ankle step_up is a plantarflexion (the engaged fibres vented) and "
+        "step_down a dorsiflexion (filled); the on/off valves open "
+        "and close at different speeds, so the two directions differ (thesis Ch. 6)."
+    )
 
 
 def _figure_dir(run_dir: Path) -> Path:
@@ -115,7 +138,7 @@ def report(
             "PD alone vs model-based feed-forward + PD (same gains)",
             (
                 "RMSE of the logged output against the reference; reduction = 1 - FF+PD / PD "
-                "(target >= 50 %). Sensor resolution 0.02 mm and 0.01 N."
+                f"(target >= 50 %). {_resolutions(study)}{_directions(study)}"
             ),
             tables=(
                 Table(frames["targets"], "Tracking RMSE per task"),
@@ -165,10 +188,15 @@ def _resonances(study: Study) -> str:
     if not said:
         return "The linearised plants have no oscillatory mode."
     return (
-        "; ".join(said).capitalize() + ". A lightly damped mode behind the valve's lag limits "
+        _sentence("; ".join(said)) + ". A lightly damped mode behind the valve's lag limits "
         "how stiff a PD can be with these margins: the loop must cross over below it, and the "
         "model's feed-forward does the tracking there."
     )
+
+
+def _sentence(text: str) -> str:
+    """``text`` with a capital first letter (str.capitalize would lower "Hz")."""
+    return text[:1].upper() + text[1:]
 
 
 def _on_off_section(study: Study, config: ControlConfig) -> Section:

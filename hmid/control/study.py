@@ -1,16 +1,19 @@
 """The control study of a config: tune, track every reference with every controller and valve,
 and shake the plant; typed results for the report (:mod:`pipelines.control` writes them).
 
-Per task (force, position) the PD is tuned once on the model's linearisation at the first
-reference's start and keeps its gains for every reference, valve and plant: PD alone and
-feed-forward + PD run at the same gains. With on/off valves the same PD's effort is switched
-on the valves (:mod:`hmid.control.actuation`).
+Per task (force, position on the Ch. 4 rig; angle on the ankle) the PD is tuned once on the
+model's linearisation at the first reference's start and keeps its gains for every reference,
+valve and plant: PD alone and feed-forward + PD run at the same gains. With on/off valves the
+same PD's effort is switched on the valves (:mod:`hmid.control.actuation`). The perturbed plants
+(robustness) are each rig's own: the muscle drawn from the model's posterior on the Ch. 4 rig,
+every fibre drawn from its type's posterior (or the build's scatter) on the ankle
+(:mod:`hmid.control.ankle_study`), and undeclared effects on both.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -18,7 +21,7 @@ from hmid.control.actuation import PWM, Switching
 from hmid.control.config import ControlConfig
 from hmid.control.experiments import Controller, FeedForward, Tracking, feedforward, track
 from hmid.control.inverse import ForceLaw
-from hmid.control.plant import MuscleRig
+from hmid.control.plant import MuscleRig, Plant
 from hmid.control.references import Reference, reference
 from hmid.control.robustness import Spread, posterior_muscles
 from hmid.control.tuning import Tuning, tune
@@ -34,7 +37,7 @@ class TaskResult:
     task: str
     unit: str
     resolution: float
-    plant: MuscleRig
+    plant: Plant
     tuning: Tuning
     gain: float  # the linearised plant's static gain (tracked unit per Pa)
     runs: dict[tuple[str, str, Controller], Tracking]
@@ -53,6 +56,10 @@ class Study:
     valves: tuple[str, ...]  # "proportional", and "on/off (switching)" where configured
 
 
+#: Perturbed plants by case ("posterior (100 draws)", an effect's kind), for the robustness study
+Perturbed = list[tuple[str, list[Plant]]]
+
+
 def plants(config: ControlConfig) -> dict[str, MuscleRig]:
     """The configured tasks' plants, with the proportional valve."""
     sensors = Sensors()
@@ -67,17 +74,17 @@ def plants(config: ControlConfig) -> dict[str, MuscleRig]:
     return out
 
 
-def references(config: ControlConfig, task: str) -> dict[str, Reference]:
-    section = getattr(config.tasks, task)
+def references(config: ControlConfig, low: float, high: float) -> dict[str, Reference]:
+    """Every configured reference between ``low`` and ``high`` (the tracked output's unit)."""
     t = np.arange(0, round(config.duration * config.rate) + 1) / config.rate
     return {
-        kind: reference(kind, t, section.low, section.high, step_at=config.step_at,
+        kind: reference(kind, t, low, high, step_at=config.step_at,
                         transition=config.transition, frequency=config.frequency)
         for kind in config.references
     }  # fmt: skip
 
 
-def on_off(plant: MuscleRig, config: ControlConfig) -> MuscleRig:
+def on_off(plant: Plant, config: ControlConfig) -> Plant:
     section = config.on_off
     assert section is not None
     actuation = (
@@ -85,10 +92,16 @@ def on_off(plant: MuscleRig, config: ControlConfig) -> MuscleRig:
         if section.realisation == "switching"
         else PWM(period=section.period, span=section.span)
     )
-    return replace(plant, valves=section.valves, actuation=actuation)
+    return plant.with_on_off(section.valves, actuation)
 
 
-def _rmse(plant: MuscleRig, tuning: Tuning, ff: FeedForward, ref: Reference, seed: int) -> float:
+def valve_kinds(config: ControlConfig) -> tuple[str, ...]:
+    if config.on_off is None:
+        return ("proportional",)
+    return ("proportional", f"on/off ({config.on_off.realisation})")
+
+
+def _rmse(plant: Plant, tuning: Tuning, ff: FeedForward, ref: Reference, seed: int) -> float:
     """FF+PD's RMSE on a perturbed plant; infinite where the run breaks the rig's physics (the
     string goes slack): the controller failed there."""
     try:
@@ -97,45 +110,62 @@ def _rmse(plant: MuscleRig, tuning: Tuning, ff: FeedForward, ref: Reference, see
         return float("inf")
 
 
-def run_study(config: ControlConfig, model, progress: Callable[[str], None] | None = None) -> Study:
-    """Every task of ``config`` with the loaded ``model`` (:class:`hmid.Model`)."""
-    law = ForceLaw.of(model)
+def run_task(
+    task: str,
+    plant: Plant,
+    law,
+    refs: dict[str, Reference],
+    perturbed: Perturbed,
+    config: ControlConfig,
+    seed: int,
+    progress: Callable[[str], None] | None = None,
+) -> TaskResult:
+    """Tune the PD on ``plant``'s linearisation by ``law``, track every reference with PD and
+    FF+PD on every valve kind, and the perturbed plants with FF+PD."""
     ctl = config.controller
+    first = next(iter(refs.values()))
+    linear = plant.linear(law, first, ctl.valve_tau)
+    tuning = tune(linear, 1.0 / config.rate,
+                  gain_margin_db=ctl.gain_margin_db, phase_margin_deg=ctl.phase_margin_deg,
+                  tf=ctl.derivative_filter_s)  # fmt: skip
+    runs: dict[tuple[str, str, Controller], Tracking] = {}
+    spreads: dict[str, list[Spread]] = {}
+    for kind, ref in refs.items():
+        if progress:
+            progress(f"{task}: {kind}")
+        for name in valve_kinds(config):
+            target = plant if name == "proportional" else on_off(plant, config)
+            for controller in ("PD", "FF+PD"):
+                ff = feedforward(target, law, ref, controller, ctl.valve_tau)
+                runs[(kind, name, controller)] = track(target, tuning, ff, ref, controller, seed)
+        nominal = runs[(kind, "proportional", "FF+PD")].metrics.rmse
+        ff = feedforward(plant, law, ref, "FF+PD", ctl.valve_tau)
+        spreads[kind] = [
+            Spread(case, nominal, np.array([_rmse(p, tuning, ff, ref, seed) for p in cases]))
+            for case, cases in perturbed
+        ]
+    gain = float(np.squeeze(linear.dcgain()))
+    return TaskResult(task, plant.unit, plant.resolution, plant, tuning, gain, runs, spreads)
+
+
+def run_study(config: ControlConfig, model, progress: Callable[[str], None] | None = None) -> Study:
+    """Every task of ``config`` with the loaded ``model`` (:class:`hmid.Model`; for the ankle a
+    mapping of fibre type to model)."""
+    if config.ankle is not None:
+        from hmid.control.ankle_study import run_ankle
+
+        return run_ankle(config, model, progress)
+    law = ForceLaw.of(model)
     muscles = posterior_muscles(model, config.robustness.draws, config.seed)
     effects = [make_effect(spec) for spec in config.robustness.effects]
-    valves = ["proportional"]
-    if config.on_off is not None:
-        valves.append(f"on/off ({config.on_off.realisation})")
     results = []
     for seed, (task, plant) in enumerate(plants(config).items()):
-        refs = references(config, task)
-        first = next(iter(refs.values()))
-        linear = plant.linear(law, first, ctl.valve_tau)
-        tuning = tune(linear, 1.0 / config.rate,
-                      gain_margin_db=ctl.gain_margin_db, phase_margin_deg=ctl.phase_margin_deg,
-                      tf=ctl.derivative_filter_s)  # fmt: skip
-        runs: dict[tuple[str, str, Controller], Tracking] = {}
-        spreads: dict[str, list[Spread]] = {}
-        for kind, ref in refs.items():
-            if progress:
-                progress(f"{task}: {kind}")
-            for name in valves:
-                target = plant if name == "proportional" else on_off(plant, config)
-                for controller in ("PD", "FF+PD"):
-                    ff = feedforward(target, law, ref, controller, ctl.valve_tau)
-                    runs[(kind, name, controller)] = track(target, tuning, ff, ref, controller,
-                                                           seed)  # fmt: skip
-            nominal = runs[(kind, "proportional", "FF+PD")].metrics.rmse
-            ff = feedforward(plant, law, ref, "FF+PD", ctl.valve_tau)
-            cases = []
-            if muscles:
-                rmse = [_rmse(plant.with_muscle(m), tuning, ff, ref, seed) for m in muscles]
-                cases.append(Spread(f"posterior ({len(muscles)} draws)", nominal, np.array(rmse)))
-            for effect in effects:
-                rmse_e = _rmse(plant.with_effects((effect,)), tuning, ff, ref, seed)
-                cases.append(Spread(effect.kind, nominal, np.array([rmse_e])))
-            spreads[kind] = cases
-        gain = float(np.squeeze(linear.dcgain()))
-        results.append(TaskResult(task, plant.unit, plant.resolution, plant, tuning, gain, runs,
-                                  spreads))  # fmt: skip
-    return Study(model.name, tuple(results), tuple(valves))
+        section = getattr(config.tasks, task)
+        perturbed: Perturbed = []
+        if muscles:
+            perturbed.append((f"posterior ({len(muscles)} draws)",
+                              [plant.with_muscle(m) for m in muscles]))  # fmt: skip
+        perturbed += [(effect.kind, [plant.with_effects((effect,))]) for effect in effects]
+        refs = references(config, section.low, section.high)
+        results.append(run_task(task, plant, law, refs, perturbed, config, seed, progress))
+    return Study(model.name, tuple(results), valve_kinds(config))

@@ -7,16 +7,18 @@ PD (:class:`~hmid.control.controllers.PD`) in discrete time is
 
     C(z) = kp + kd (1 - a) / dt (z - 1) / (z - a),   a = exp(-dt / tf).
 
-**Rule: the stiffest PD with the asked margins.** Over a grid of kd (none, then a log grid),
-the largest kp on a log grid whose loop C G is stable with at least the asked gain and phase
+**Rule: the stiffest PD with the asked margins.** Over a grid of kd (none, then a log grid), the
+largest kp on a log grid whose loop C G is stable with at least the asked gain and phase
 margins; of those, the largest kp (the static stiffness of the loop, what a set-point tracker
-lives on). A crossover rule (gain 1 and a phase at one frequency) does not fit the Ch. 4 rig:
-the mass on the muscle's spring is a resonance of about 12 Hz damped by 1 % (the Maxwell arm
-damps at 1/tau, far below it) behind the valve's 30 ms lag, so the loop must cross over below
-the resonance, where the plant's phase needs no lead, with the resonance's peak under the gain
-margin, and the D part is what damps that peak. The grid is scored from the loop's frequency
-response and the closed loop's eigenvalues (fast); python-control then reports the chosen
-loop's margins (``control.margin``) and closed-loop poles (``control.feedback``).
+lives on); the gains take the sign of the plant's static gain (the ankle's angle falls as the
+pressure rises: its gains are negative), "largest" meaning in size. A crossover rule (gain 1 and
+a phase at one frequency) does not fit the Ch. 4 rig: the mass on the muscle's spring is a
+resonance of about 12 Hz damped by 1 % (the Maxwell arm damps at 1/tau, far below it) behind the
+valve's 30 ms lag, so the loop must cross over below the resonance, where the plant's phase
+needs no lead, with the resonance's peak under the gain margin, and the D part is what damps
+that peak. The grid is scored from the loop's frequency response and the closed loop's
+eigenvalues (fast); python-control then reports the chosen loop's margins (``control.margin``)
+and closed-loop poles (``control.feedback``).
 """
 
 from __future__ import annotations
@@ -137,7 +139,7 @@ def tune(
     z = np.exp(2j * np.pi * freqs * dt)
     g = np.asarray(sampled(z)).reshape(-1)
     d = np.asarray(pd_filter(tf, dt)(z)).reshape(-1)
-    static = 1.0 / abs(g[0])
+    static = np.sign(g[0].real) / abs(g[0])  # the gains take the plant's sign (the ankle's < 0)
     a = np.exp(-dt / tf)
     candidates: list[tuple[float, float]] = []
     for kd in (0.0, *np.geomspace(1e-5, 1.0, 31) * static):
@@ -151,7 +153,7 @@ def tune(
                 break
     # the grid's margins are estimates (a 1 %-damped resonance is sharp): python-control has
     # the last word, the stiffest candidate it passes wins
-    for kp, kd in sorted(candidates, key=lambda c: (-c[0], c[1])):
+    for kp, kd in sorted(candidates, key=lambda c: (-abs(c[0]), abs(c[1]))):
         tuning = _report(plant, kp, kd, tf, dt)
         if (
             tuning.stable

@@ -60,3 +60,9 @@ def test_switching_holds_a_pressure_near_its_band():
 def test_switchings_count_every_opening_and_closing():
     assert switchings(np.array([0, 1, 1, 0, -1, -1, 1, 0])) == 6
     assert switchings(np.zeros(5)) == 0
+
+
+def test_switchings_of_several_valves_add_up():
+    one = np.array([0, 1, 1, 0, -1, 0])  # inlet opens, closes; outlet opens, closes
+    assert switchings(one) == 4
+    assert switchings(np.stack([one, one, np.zeros(6)], axis=1)) == 8  # per valve, summed

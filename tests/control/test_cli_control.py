@@ -66,3 +66,45 @@ def test_a_model_without_pressure_is_one_line(identified, tmp_path, capsys):
                      robustness={"draws": 0})  # fmt: skip
     assert main(["control", str(config), "--results", str(tmp_path / "r"), "--quiet"]) == 2
     assert "no term in P" in capsys.readouterr().err
+
+
+ANKLE = SHIPPED.parent / "ankle.yaml"
+
+
+def test_the_shipped_ankle_config_runs_and_writes_its_report(fibre_models, tmp_path):
+    config = yaml.safe_load(ANKLE.read_text())
+    config["ankle"] |= {
+        "plant": str(ANKLE.parent / "ankle-plant.yaml"),
+        "models": {k: {"run": str(v), "name": "sls"} for k, v in fibre_models.items()},
+        "scatter_draws": 2,
+    }
+    config |= {"duration": 2.0, "step_at": 0.5, "references": ["step_up", "step_down"],
+               "robustness": {"draws": 2, "effects": [{"kind": "stribeck", "delta": 0.2,
+                                                       "v_s": 0.05}]}}  # fmt: skip
+    path = tmp_path / "ankle.yaml"
+    path.write_text(yaml.safe_dump(config))
+    assert main(["control", str(path), "--results", str(tmp_path / "r"), "--quiet"]) == 0
+    (run_dir,) = (tmp_path / "r" / "control-ankle").iterdir()
+    manifest = json.loads((run_dir / "manifest.json").read_text())
+    assert manifest["status"] == "complete"
+    assert sum(p.endswith("sls.json") for p in manifest["inputs_sha256"]) == 2  # both types
+    targets = pd.read_csv(run_dir / "tables" / "targets.csv")
+    assert len(targets) == 2 * 2  # references x valves
+    assert (targets[targets["valves"] == "proportional"]["reduction"] >= 0.5).all()
+    robust = pd.read_csv(run_dir / "tables" / "robustness.csv")
+    assert set(robust["plant"]) == {"posterior (2 draws)", "build scatter (2 draws)", "stribeck"}
+    tracking = pd.read_csv(run_dir / "tables" / "tracking.csv")
+    assert (tracking[tracking["valves"] != "proportional"]["switchings"] > 0).all()
+    assert {p.name for p in (run_dir / "figures").iterdir()} >= {"angle_proportional.png"}
+
+
+def test_an_ankle_config_without_fibre_models_says_how_to_make_them(tmp_path, capsys):
+    config = yaml.safe_load(ANKLE.read_text())
+    config["ankle"] |= {"plant": str(ANKLE.parent / "ankle-plant.yaml"),
+                        "models": {k: {"run": str(tmp_path / k)} for k in
+                                   ("gastrocnemius", "soleus")}}  # fmt: skip
+    path = tmp_path / "ankle.yaml"
+    path.write_text(yaml.safe_dump(config))
+    assert main(["control", str(path), "--results", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "make fibre-models" in err and len(err.splitlines()) == 1
