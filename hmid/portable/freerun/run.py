@@ -59,9 +59,14 @@ def within_budget(spans: list[np.ndarray], dt: float) -> tuple[list[np.ndarray],
     else:
         kept = spans[:1]
     return kept, (
-        f"free run on {len(kept)} of {len(spans)} held-out blocks (every {stride}th: at most "
+        f"free run on {len(kept)} of {len(spans)} held-out blocks (every {_nth(stride)}: at most "
         f"{FREE_RUN_BUDGET_S:g} s of held-out time per model; {total:.0f} s in all)"
     )
+
+
+def _nth(n: int) -> str:
+    suffix = "th" if 10 <= n % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(n % 10, "th")
+    return f"{n}{suffix}"
 
 
 def chunks(spans: list[np.ndarray], length: int) -> list[np.ndarray]:
