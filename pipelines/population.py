@@ -20,7 +20,7 @@ from hmid.population._study import (
     settings,
     study_inputs,
     study_metrics,
-    write_outputs,
+    write_population,
     write_predicted_models,
 )
 from hmid.runs import config_json, open_run
@@ -69,7 +69,7 @@ def run(
                 )
         exponents = exponent_table(fit, config.law.interval)
         metrics = study_metrics(fit, exponents, forces, params, config, identified)
-        write_outputs(
+        write_population(
             folder.path, fit, pool, exponents, forces, params, metrics, folder.provenance()
         )
     return folder.path, metrics

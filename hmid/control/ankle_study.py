@@ -19,7 +19,7 @@ from typing import Any
 from hmid.control.ankle import AnkleRig, FibreLaws, recruit
 from hmid.control.config import ControlConfig
 from hmid.control.robustness import posterior_muscles
-from hmid.control.study import Perturbed, Study, references, run_task, valve_kinds
+from hmid.control.study import Perturbed, Study, references, run_tracking_task, valve_kinds
 from hmid.simulate.effects import make_effect
 from hmid.simulate.params import MuscleParams
 from hmid.simulate.rigs.ankle_params import AnkleParams
@@ -89,5 +89,5 @@ def run_ankle(
     effects = [make_effect(spec) for spec in config.robustness.effects]
     perturbed += [(effect.kind, [plant.with_effects((effect,))]) for effect in effects]
     refs = references(config, math.radians(section.low_deg), math.radians(section.high_deg))
-    result = run_task("angle", plant, laws, refs, perturbed, config, 0, progress)
+    result = run_tracking_task("angle", plant, laws, refs, perturbed, config, 0, progress)
     return Study(laws.name, (result,), valve_kinds(config))

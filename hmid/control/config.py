@@ -18,15 +18,13 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from hmid._messages import format_validation_error
-from hmid.config import read_yaml
+from hmid.config import Positive, read_yaml
 from hmid.control.references import KINDS, Kind
 from hmid.errors import ConfigError
 from hmid.simulate.effects import make_effect
 from hmid.simulate.params import RigParams
 from hmid.simulate.rigs.ankle_params import AnkleParams, load_ankle_params
 from hmid.simulate.valves import OnOffValves, ProportionalValve
-
-Positive = Annotated[float, Field(gt=0)]
 
 
 class _Strict(BaseModel):
@@ -119,7 +117,7 @@ class TaskSection(_Strict):
         return self
 
 
-class Tasks(_Strict):
+class TrackingTasks(_Strict):
     force: TaskSection | None = TaskSection(low=5.0, high=25.0)
     position: TaskSection | None = TaskSection(low=0.004, high=0.009)
 
@@ -175,7 +173,7 @@ class ControlConfig(_Strict):
     frequency: Positive = 1.0
     references: tuple[Kind, ...] = KINDS
     noise: bool = True  # the sensors' noise (the demo's: 15 um, 6 mN)
-    tasks: Tasks = Tasks()
+    tasks: TrackingTasks = TrackingTasks()
     controller: ControllerSection = ControllerSection()
     on_off: OnOffSection | None = OnOffSection()
     robustness: RobustnessSection = RobustnessSection()

@@ -20,14 +20,14 @@ import numpy as np
 
 from hmid.control.controllers import PD, Tracker
 from hmid.control.inverse import ForceLaw
-from hmid.control.metrics import Metrics, score
+from hmid.control.metrics import Metrics, tracking_score
 from hmid.control.plant import Plant
 from hmid.control.references import Reference
 from hmid.control.tuning import Tuning
 from hmid.simulate.rig import closed_loop
 
-Controller = Literal["PD", "FF+PD", "FF"]
-CONTROLLERS: tuple[Controller, ...] = ("PD", "FF+PD", "FF")
+ControllerKind = Literal["PD", "FF+PD", "FF"]
+CONTROLLERS: tuple[ControllerKind, ...] = ("PD", "FF+PD", "FF")
 
 
 @dataclass(frozen=True)
@@ -37,7 +37,7 @@ class Tracking:
     pressure, the on/off
     valves' commands (None for a proportional valve), and the scores."""
 
-    controller: Controller
+    controller: ControllerKind
     reference: Reference
     t: np.ndarray
     output: np.ndarray
@@ -48,7 +48,7 @@ class Tracking:
     metrics: Metrics
 
 
-def tracker(plant: Plant, tuning: Tuning, controller: Controller = "FF+PD") -> Tracker:
+def tracker(plant: Plant, tuning: Tuning, controller: ControllerKind = "FF+PD") -> Tracker:
     """The tracker of ``plant`` with the tuned gains (arrays: new gains do not recompile)."""
     pd = PD(*(jnp.asarray(v, dtype=float) for v in (tuning.kp, tuning.kd, tuning.tf,
                                                        tuning.dt)))  # fmt: skip
@@ -68,7 +68,7 @@ class FeedForward:
 
 
 def feedforward(
-    plant: Plant, law: ForceLaw, ref: Reference, controller: Controller, valve_tau: float
+    plant: Plant, law: ForceLaw, ref: Reference, controller: ControllerKind, valve_tau: float
 ) -> FeedForward:
     """The feed-forward of ``controller``: the hold pressure for PD alone, the model's inverse
     dynamics otherwise."""
@@ -83,7 +83,7 @@ def track(
     tuning: Tuning,
     ff: FeedForward,
     ref: Reference,
-    controller: Controller,
+    controller: ControllerKind,
     seed: int = 0,
 ) -> Tracking:
     """Run ``plant`` under ``controller`` with the feed-forward ``ff`` along ``ref`` (sampled
@@ -98,6 +98,6 @@ def track(
     )  # fmt: skip
     output = getattr(traj, plant.tracked)
     effort, pressure, valve = plant.commanded(traj, commands, ff)
-    metrics = score(ref, traj.t, output, plant.resolution, valve)
+    metrics = tracking_score(ref, traj.t, output, plant.resolution, valve)
     return Tracking(controller, ref, traj.t, output, ff.demand[1:], effort, pressure, valve,
                     metrics)  # fmt: skip

@@ -28,7 +28,7 @@ class Metrics:
     switchings: int | None
 
 
-def score(
+def tracking_score(
     ref: Reference, t: np.ndarray, y: np.ndarray, resolution: float, valve: np.ndarray | None
 ) -> Metrics:
     """Scores of the output ``y`` at the times ``t`` (instants of the reference's grid)."""

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 
 from hmid.control.config import ControlConfig
-from hmid.control.study import Controller, Study, TaskResult
+from hmid.control.study import ControllerKind, Study, TaskResult
 from hmid.report import Figure, Report, Section, Table
 
 REDUCTION, ROBUST = 0.5, 1.5  # the targets: FF+PD at most half PD's RMSE; 1.5x spread
@@ -73,7 +73,7 @@ def figures(study: Study, run_dir: Path) -> None:
             for ax, kind in zip(axes[:, 0], kinds, strict=True):
                 ref = task.runs[(kind, valves, "PD")].reference
                 ax.plot(ref.t, ref.y * scale, "k--", lw=1, label="reference")
-                colours: tuple[tuple[Controller, str], ...] = (
+                colours: tuple[tuple[ControllerKind, str], ...] = (
                     ("PD", "tab:orange"), ("FF+PD", "tab:blue"),
                 )  # fmt: skip
                 for controller, colour in colours:

@@ -19,7 +19,7 @@ import numpy as np
 
 from hmid.control.actuation import PWM, Switching
 from hmid.control.config import ControlConfig
-from hmid.control.experiments import Controller, FeedForward, Tracking, feedforward, track
+from hmid.control.experiments import ControllerKind, FeedForward, Tracking, feedforward, track
 from hmid.control.inverse import ForceLaw
 from hmid.control.plant import MuscleRig, Plant
 from hmid.control.references import Reference, reference
@@ -40,7 +40,7 @@ class TaskResult:
     plant: Plant
     tuning: Tuning
     gain: float  # the linearised plant's static gain (tracked unit per Pa)
-    runs: dict[tuple[str, str, Controller], Tracking]
+    runs: dict[tuple[str, str, ControllerKind], Tracking]
     spreads: dict[str, list[Spread]]  # reference kind -> robustness cases
 
     def reduction(self, kind: str, valves: str) -> float:
@@ -110,7 +110,7 @@ def _rmse(plant: Plant, tuning: Tuning, ff: FeedForward, ref: Reference, seed: i
         return float("inf")
 
 
-def run_task(
+def run_tracking_task(
     task: str,
     plant: Plant,
     law,
@@ -128,7 +128,7 @@ def run_task(
     tuning = tune(linear, 1.0 / config.rate,
                   gain_margin_db=ctl.gain_margin_db, phase_margin_deg=ctl.phase_margin_deg,
                   tf=ctl.derivative_filter_s)  # fmt: skip
-    runs: dict[tuple[str, str, Controller], Tracking] = {}
+    runs: dict[tuple[str, str, ControllerKind], Tracking] = {}
     spreads: dict[str, list[Spread]] = {}
     for kind, ref in refs.items():
         if progress:
@@ -167,5 +167,5 @@ def run_study(config: ControlConfig, model, progress: Callable[[str], None] | No
                               [plant.with_muscle(m) for m in muscles]))  # fmt: skip
         perturbed += [(effect.kind, [plant.with_effects((effect,))]) for effect in effects]
         refs = references(config, section.low, section.high)
-        results.append(run_task(task, plant, law, refs, perturbed, config, seed, progress))
+        results.append(run_tracking_task(task, plant, law, refs, perturbed, config, seed, progress))
     return Study(model.name, tuple(results), valve_kinds(config))

@@ -27,12 +27,11 @@ from typing import Annotated
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hmid.config import load_yaml_model
+from hmid.simulate.dataset import Name
 from hmid.simulate.params import Sensors
 from hmid.simulate.rigs.hydro_muscle_dataset import LogSpec, Output
 from hmid.simulate.specs import MuscleSpec, Scatter
 from hmid.sweep import ExecutorSection
-
-Name = Annotated[str, Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$", max_length=80)]
 
 
 class _Frozen(BaseModel):

@@ -47,14 +47,14 @@ MODULUS = {"A_eff": 0.0, "F0": 0.0, "k1": 1.0, "k3": 1.0, "k2": 1.0, "tau": 0.0}
 ADDITIVE = frozenset({"F0"})
 
 
-def features(spec: MuscleSpec) -> np.ndarray:
+def spec_features(spec: MuscleSpec) -> np.ndarray:
     """log(bore area), log(wall area), log(length) of one build."""
     return np.array([math.log(spec.bore_area), math.log(spec.wall_area), math.log(spec.length)])
 
 
 def feature_matrix(specs) -> np.ndarray:
     """One row of :func:`features` per build."""
-    return np.array([features(s) for s in specs])
+    return np.array([spec_features(s) for s in specs])
 
 
 def offsets(spec: MuscleSpec) -> np.ndarray:

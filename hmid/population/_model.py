@@ -32,8 +32,8 @@ from hmid.population._law import (
     PARAMETERS,
     expected_matrix,
     feature_matrix,
-    features,
     offsets,
+    spec_features,
 )
 from hmid.population._summary import MuscleFit
 from hmid.simulate.specs import MuscleSpec
@@ -81,7 +81,7 @@ class PopulationFit:
 
     def law_log(self, spec: MuscleSpec) -> np.ndarray:
         """Draws (S, P) of the law's log-value at ``spec`` (in units of ``scale``)."""
-        f = features(spec) - self.center
+        f = spec_features(spec) - self.center
         o = offsets(spec) - self.center_offsets
         return self.intercept + np.einsum("spf,f->sp", self.exponent, f) + o
 

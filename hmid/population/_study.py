@@ -103,7 +103,7 @@ def study_metrics(
     return metrics
 
 
-def write_outputs(
+def write_population(
     path: Path,
     fit: PopulationFit,
     pool: Pool,

@@ -17,7 +17,7 @@ from scipy.signal import butter, sosfiltfilt
 from hmid.simulate.params import _Frozen
 
 
-class Reference(_Frozen):
+class RandomReference(_Frozen):
     """A random position reference: RMS (m) and low-pass cutoff (Hz)."""
 
     rms: Annotated[float, Field(gt=0, le=10)] = 0.02  # m

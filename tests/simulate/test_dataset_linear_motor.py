@@ -12,7 +12,7 @@ from _regenerated import differences
 from hmid.errors import ConfigError
 from hmid.io import load_column_map, read_log
 from hmid.simulate.datasets import load_dataset_config
-from hmid.simulate.reference import Reference
+from hmid.simulate.reference import RandomReference
 from hmid.simulate.rigs.hydro_muscle_dataset import FreeFallLog, HydroMuscleDataset
 from hmid.simulate.rigs.linear_motor import LinearMotorParams
 from hmid.simulate.rigs.linear_motor_dataset import (
@@ -28,7 +28,9 @@ ROOT = Path(__file__).resolve().parents[2]
 def _config(seed=5, **kw):
     logs = kw.pop("logs", None) or (
         LinearMotorLog(name="fast", duration=4.0),
-        LinearMotorLog(name="slow", duration=4.0, reference=Reference(rms=0.01, cutoff_hz=1.0)),
+        LinearMotorLog(
+            name="slow", duration=4.0, reference=RandomReference(rms=0.01, cutoff_hz=1.0)
+        ),
     )
     return LinearMotorDataset(seed=seed, logs=logs, **kw)
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.signal import periodogram
 
-from hmid.simulate.reference import Reference
+from hmid.simulate.reference import RandomReference
 from hmid.simulate.rig import integrate
 from hmid.simulate.rigs.linear_motor import (
     LinearMotor,
@@ -21,7 +21,9 @@ FS = STAGE.Fc * STAGE.static_ratio
 
 
 def _reference(duration=15.0, seed=3, **kw):
-    return Reference(**kw).positions(round(duration * RATE), RATE, np.random.default_rng(seed))
+    return RandomReference(**kw).positions(
+        round(duration * RATE), RATE, np.random.default_rng(seed)
+    )
 
 
 def _closed_loop(stage=STAGE, substeps=20, **kw):

@@ -31,7 +31,7 @@ from hmid.simulate.dataset import (
     unique_names,
 )
 from hmid.simulate.params import _Frozen
-from hmid.simulate.reference import Reference
+from hmid.simulate.reference import RandomReference
 from hmid.simulate.rig import Trajectory, integrate
 from hmid.simulate.rigs.linear_motor import (
     LinearMotor,
@@ -84,7 +84,7 @@ class LinearMotorLog(_Frozen):
     kind: ClassVar[str] = "dynamic"  # as the written index lists it
     name: Name
     duration: Annotated[float, Field(gt=0, le=3600)]  # s
-    reference: Reference = Reference()
+    reference: RandomReference = RandomReference()
     seed: Annotated[int, Field(ge=0)] | None = None  # overrides the derived seed
 
     @model_validator(mode="after")
