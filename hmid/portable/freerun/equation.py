@@ -17,7 +17,7 @@ free falls do not measure.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from hmid.balance.kinds import (
@@ -60,28 +60,31 @@ class Equation:
     v0: float
 
 
-def equation(model, v0: float | None = None) -> Equation:
-    """The equation of motion of ``model`` (:class:`~hmid.portable.Model`) on its rig."""
-    rig = model.rig
-    x = rig.position
-    if x is None:
-        raise NotSimulable("the rig declares no position: a free run does not apply")
-    fit = model.document.get("fit") or {}
-    v0 = float(v0 if v0 is not None else max(fit.get("v_deadband", 0.002), 1e-4))
-    units = model.document["units"]
-    inputs: list[str] = []
-    memory: list[float] = []
-    lags: list[tuple[str, float]] = []
-    rhs: list[tuple[str, Any, float]] = []
+@dataclass
+class _Reading:
+    """What reading one model's terms collects, in order of appearance: the channels read from
+    the log, the memory arms' relaxation times and the lags' (input, time constant)."""
 
-    def channel(name: str) -> str:
-        if name in (x, "v", "a"):
+    position: str
+    v0: float
+    inputs: list[str] = field(default_factory=list)
+    memory: list[float] = field(default_factory=list)
+    lags: list[tuple[str, float]] = field(default_factory=list)
+
+    def channel(self, name: str) -> str:
+        """``name``, noted as an input unless it is the state (x, v, a)."""
+        if name in (self.position, "v", "a"):
             return name
-        if name not in inputs:
-            inputs.append(name)
+        if name not in self.inputs:
+            self.inputs.append(name)
         return name
 
-    def term_parts(term, coef: float) -> list:
+    def monomial(self, powers: dict[str, int]) -> tuple[tuple[str, int], ...]:
+        """A product of channels' powers, its inputs noted."""
+        return tuple((self.channel(c), p) for c, p in powers.items())
+
+    def parts(self, term, coef: float) -> list[tuple[str, Any, float]]:
+        """``term`` times ``coef`` as the equation's parts (kind, data, coefficient)."""
         s = term.sign * coef
         if isinstance(term, ConstantTerm):
             return [("const", None, s)]
@@ -91,55 +94,80 @@ def equation(model, v0: float | None = None) -> Equation:
                 if powers != {"a": 1}:
                     raise NotSimulable(f"term {term.name} ({term.channel}) is not linear in a")
                 return [("accel", None, s)]
-            return [("mono", tuple((channel(c), p) for c, p in powers.items()), s)]
+            return [("mono", self.monomial(powers), s)]
         if isinstance(term, CoulombTerm):
             if term.channel != "v":
                 raise NotSimulable(f"term {term.name}: sign of {term.channel}")
-            return [("tanh", v0, s)]
+            return [("tanh", self.v0, s)]
         if isinstance(term, SmoothCoulombTerm):
             return [("tanh", float(term.scale), s)]
         if isinstance(term, MemoryTerm):
-            if term.channel != x:
+            if term.channel != self.position:
                 raise NotSimulable(f"term {term.name}: a memory arm of {term.channel}")
-            memory.append(_fixed(term, term.tau))
-            return [("memory", (len(memory) - 1, _fixed(term, term.tau)), s)]
+            self.memory.append(_fixed(term, term.tau))
+            return [("memory", (len(self.memory) - 1, _fixed(term, term.tau)), s)]
         if isinstance(term, LagTerm):
-            if term.channel in (x, "v", "a"):
+            if term.channel in (self.position, "v", "a"):
                 raise NotSimulable(f"term {term.name}: a lag of the state {term.channel}")
-            name = channel(term.channel)
+            name = self.channel(term.channel)
             if term.filter == "delay":
                 return [("delay", (name, _fixed(term, term.time)), s)]
-            lags.append((name, _fixed(term, term.time)))
-            return [("lag", len(lags) - 1, s)]
+            self.lags.append((name, _fixed(term, term.time)))
+            return [("lag", len(self.lags) - 1, s)]
         raise NotSimulable(f"term {term.name} of kind {term.kind} has no free-run form")
 
+
+def _model_side(model, reading: _Reading) -> list[tuple[str, Any, float]]:
+    """The balance's model side: the model's terms with their coefficients, then the rig's
+    known terms (the free-fall friction law as one part)."""
+    rig, units = model.rig, model.document["units"]
+    rhs: list[tuple[str, Any, float]] = []
     for term, coef in zip(model.terms, model.coef, strict=True):
-        rhs += term_parts(term, float(coef))
+        rhs += reading.parts(term, float(coef))
     for term in rig.known:
         if getattr(term, "source", None) == "free_fall":
             law = model.document["known"]["free_fall_friction"]
-            rhs.append(("friction", (float(law["Fc"]), float(law["b"]), v0), float(term.sign)))
+            rhs.append(
+                ("friction", (float(law["Fc"]), float(law["b"]), reading.v0), float(term.sign))
+            )
         else:
-            rhs += term_parts(term, rig.term_value(term, units))
-    lhs: list[tuple[str, Any, float]]
+            rhs += reading.parts(term, rig.term_value(term, units))
+    return rhs
+
+
+def _explained_side(model, reading: _Reading) -> list[tuple[str, Any, float]]:
+    """The balance's explained side: the motion (mass a + offset), or the explained parts."""
+    rig = model.rig
     if rig.motion is not None:
-        lhs = [("accel", None, float(rig.motion.mass)), ("const", None, float(rig.motion.offset))]
-    else:
-        lhs = []
-        for value, part in zip(rig.part_values(units), rig.explained.parts, strict=True):
-            powers = part.powers()
-            if "a" in powers and powers != {"a": 1}:
-                raise NotSimulable(f"the explained part {part.channel} is not linear in a")
-            if powers == {"a": 1}:
-                lhs.append(("accel", None, float(value)))
-            elif not powers:
-                lhs.append(("const", None, float(value)))
-            else:
-                lhs.append(("mono", tuple((channel(c), p) for c, p in powers.items()),
-                            float(value)))  # fmt: skip
+        return [("accel", None, float(rig.motion.mass)), ("const", None, float(rig.motion.offset))]
+    lhs: list[tuple[str, Any, float]] = []
+    for value, part in zip(rig.part_values(model.document["units"]), rig.explained.parts,
+                           strict=True):  # fmt: skip
+        powers = part.powers()
+        if "a" in powers and powers != {"a": 1}:
+            raise NotSimulable(f"the explained part {part.channel} is not linear in a")
+        if powers == {"a": 1}:
+            lhs.append(("accel", None, float(value)))
+        elif not powers:
+            lhs.append(("const", None, float(value)))
+        else:
+            lhs.append(("mono", reading.monomial(powers), float(value)))
+    return lhs
+
+
+def equation(model, v0: float | None = None) -> Equation:
+    """The equation of motion of ``model`` (:class:`~hmid.portable.Model`) on its rig."""
+    x = model.rig.position
+    if x is None:
+        raise NotSimulable("the rig declares no position: a free run does not apply")
+    fit = model.document.get("fit") or {}
+    reading = _Reading(x, float(v0 if v0 is not None else max(fit.get("v_deadband", 0.002), 1e-4)))
+    rhs = _model_side(model, reading)
+    lhs = _explained_side(model, reading)
     if not any(kind == "accel" for kind, _, _ in (*rhs, *lhs)):
         raise NotSimulable(
             "the balance has no inertial term (no a, no motion): the rig imposes its position, "
             "so a free run does not apply"
         )
-    return Equation(tuple(rhs), tuple(lhs), tuple(inputs), len(memory), tuple(lags), v0)
+    return Equation(tuple(rhs), tuple(lhs), tuple(reading.inputs), len(reading.memory),
+                    tuple(reading.lags), reading.v0)  # fmt: skip

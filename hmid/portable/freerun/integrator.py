@@ -78,27 +78,6 @@ def compiled(shape: Shape):
         force = jax.vmap(lambda s, y: explained(s, y, args))(grid, ys)
         return ys, force, ok
 
-    def _hermite(ts, ys, f, grid):
-        """The states at ``grid`` from the accepted steps': cubic Hermite between steps (value
-        and slope at both ends; 4th-order local error, as Tsit5's own dense output), one sorted
-        search for every sample (``SaveAt(ts=...)`` checks its times with a host callback, and
-        evaluating diffrax's dense output sample by sample costs more than the solve). Steps
-        never taken are inf: samples past the last step are NaN."""
-        ts = jnp.where(jnp.isfinite(ts), ts, jnp.inf)
-        slopes = jax.vmap(f)(jnp.where(jnp.isfinite(ts), ts, 0.0), jnp.nan_to_num(ys))
-        k = jnp.clip(jnp.searchsorted(ts, grid, side="right", method="sort") - 1, 0,
-                     ts.shape[0] - 2)  # fmt: skip
-        t0, t1 = ts[k], ts[k + 1]
-        h = t1 - t0
-        w = ((grid - t0) / h)[:, None]
-        h = h[:, None]
-        y0, y1, m0, m1 = ys[k], ys[k + 1], slopes[k], slopes[k + 1]
-        out = ((2 * w**3 - 3 * w**2 + 1) * y0 + (w**3 - 2 * w**2 + w) * h * m0
-               + (-2 * w**3 + 3 * w**2) * y1 + (w**3 - w**2) * h * m1)  # fmt: skip
-        exact = (grid == t0)[:, None]  # a sample on a step (the last one, a one-step block)
-        out = jnp.where(exact, y0, out)
-        return jnp.where(jnp.isfinite(t1)[:, None] | exact, out, jnp.nan)
-
     def one_draw(program, dts, count, y0, table, noise, coef, taus, lag_times, stride):
         args = (prepare(program, dts, count, coef, taus, lag_times), table, noise)
         state = solver.init(term, 0.0, 1.0, y0, args)
@@ -117,6 +96,31 @@ def compiled(shape: Shape):
 
     draws = jax.vmap(one_draw, in_axes=(None, None, None, None, None, 0, 0, 0, None, None))
     return jax.jit(run), jax.jit(draws)
+
+
+def _hermite(ts, ys, f, grid):
+    """The states at ``grid`` from the accepted steps': cubic Hermite between steps (value
+    and slope at both ends; 4th-order local error, as Tsit5's own dense output), one sorted
+    search for every sample (``SaveAt(ts=...)`` checks its times with a host callback, and
+    evaluating diffrax's dense output sample by sample costs more than the solve). Steps
+    never taken are inf: samples past the last step are NaN."""
+    import jax
+    import jax.numpy as jnp
+
+    ts = jnp.where(jnp.isfinite(ts), ts, jnp.inf)
+    slopes = jax.vmap(f)(jnp.where(jnp.isfinite(ts), ts, 0.0), jnp.nan_to_num(ys))
+    k = jnp.clip(jnp.searchsorted(ts, grid, side="right", method="sort") - 1, 0,
+                 ts.shape[0] - 2)  # fmt: skip
+    t0, t1 = ts[k], ts[k + 1]
+    h = t1 - t0
+    w = ((grid - t0) / h)[:, None]
+    h = h[:, None]
+    y0, y1, m0, m1 = ys[k], ys[k + 1], slopes[k], slopes[k + 1]
+    out = ((2 * w**3 - 3 * w**2 + 1) * y0 + (w**3 - 2 * w**2 + w) * h * m0
+           + (-2 * w**3 + 3 * w**2) * y1 + (w**3 - w**2) * h * m1)  # fmt: skip
+    exact = (grid == t0)[:, None]  # a sample on a step (the last one, a one-step block)
+    out = jnp.where(exact, y0, out)
+    return jnp.where(jnp.isfinite(t1)[:, None] | exact, out, jnp.nan)
 
 
 @dataclass(frozen=True)

@@ -116,6 +116,70 @@ def _rename(data, position: str):
     return data
 
 
+def _weights(w, flags, memory, lag_of, shape: Shape):
+    """Each kind's weight on its regressors: w (a part's signed coefficient) folded."""
+    import jax
+    import jax.numpy as jnp
+
+    return (
+        w * flags[0], w * flags[1],
+        (w * flags[2]) @ jax.nn.one_hot(memory, shape.memory, dtype=w.dtype),
+        (w * flags[3]) @ jax.nn.one_hot(lag_of, shape.lags, dtype=w.dtype),
+        w * flags[4], w * flags[5], jnp.sum(w * flags[6]),
+    )  # fmt: skip
+
+
+def _prepare(shape: Shape, program, dts, count, coef, taus, lag_times) -> dict[str, Any]:
+    """The coefficients folded into per-kind weights, once per run (see :func:`vector_field`)."""
+    import jax.numpy as jnp
+
+    side, flags, powers, scale, memory, lag_of, delay_input, delay, friction, lag_input = program
+    onehot = (powers[:, :, None] == jnp.arange(DEGREE + 1)).astype(coef.dtype)
+    mean_step = jnp.sum(jnp.where(jnp.arange(dts.shape[0]) < count - 1, dts, 0.0)) / (
+        count - 1)  # fmt: skip
+    signed = side * coef
+    return {
+        "dts": dts, "count": count, "onehot": onehot, "scale": scale, "friction": friction,
+        "delay": delay / mean_step, "delay_input": delay_input, "taus": taus,
+        "lag_times": lag_times, "lag_input": lag_input,
+        "model": _weights(signed, flags, memory, lag_of, shape),
+        "explained": _weights(jnp.where(side < 0, signed, 0.0), flags, memory, lag_of, shape),
+    }  # fmt: skip
+
+
+def _at(s, table, count):
+    """The table's columns at sample time s, linear between samples; and the sample."""
+    import jax.numpy as jnp
+
+    k = jnp.clip(jnp.floor(s).astype(jnp.int32), 0, count - 2)
+    w = s - k
+    return table[..., k] * (1 - w) + table[..., k + 1] * w, k
+
+
+def _total(shape: Shape, s, y, now, p, table, weights):
+    """The weighted sum of the parts that do not hold a, and the coefficient of a."""
+    import jax
+    import jax.numpy as jnp
+
+    m = shape.memory
+    mono, tanh_w, memory_w, lag_w, delay_w, friction_w, accel = weights
+    x, v = y[0], y[1]
+    z = jnp.concatenate([jnp.stack([x, v]), now])
+    powers = jnp.stack([z**k for k in range(DEGREE + 1)], axis=1)  # (channels, degree + 1)
+    monomials = jnp.prod(jnp.einsum("pck,ck->pc", p["onehot"], powers), axis=1)
+    fc, b, v0 = p["friction"][:, 0], p["friction"][:, 1], p["friction"][:, 2]
+    value = (
+        jnp.dot(mono, monomials) + jnp.dot(tanh_w, jnp.tanh(v / p["scale"]))
+        + jnp.dot(friction_w, (fc + b * jnp.abs(v)) * jnp.tanh(v / v0))
+        + jnp.dot(memory_w, y[2 : 2 + m]) + jnp.dot(lag_w, y[2 + m :])
+    )  # fmt: skip
+    if shape.delays:
+        late = jax.vmap(lambda d, i: _at(s - d, table, p["count"])[0][i])(
+            p["delay"], p["delay_input"])  # fmt: skip
+        value = value + jnp.dot(delay_w, late)
+    return value, accel
+
+
 def vector_field(shape: Shape):
     """``(prepare, field, explained)`` for programs of ``shape``. ``prepare(program, dts, count,
     coef, taus, lag_times)`` folds the coefficients into per-kind weights once per run (the loop
@@ -123,68 +187,20 @@ def vector_field(shape: Shape):
     with ``args = (prepared, table, noise)``, ``table`` the inputs (rows) and ``noise`` the
     disturbance force at the samples; ``explained(s, y, args)`` the explained quantity the state
     implies."""
-    import jax
     import jax.numpy as jnp
 
     m = shape.memory
 
     def prepare(program, dts, count, coef, taus, lag_times):
-        side, flags, powers, scale, memory, lag_of, delay_input, delay, friction, lag_input = (
-            program
-        )
-        onehot = (powers[:, :, None] == jnp.arange(DEGREE + 1)).astype(coef.dtype)
-        mean_step = jnp.sum(jnp.where(jnp.arange(dts.shape[0]) < count - 1, dts, 0.0)) / (
-            count - 1)  # fmt: skip
-
-        def weights(w):
-            """Each kind's weight on its regressors: w (a part's signed coefficient) folded."""
-            return (
-                w * flags[0], w * flags[1],
-                (w * flags[2]) @ jax.nn.one_hot(memory, m, dtype=w.dtype),
-                (w * flags[3]) @ jax.nn.one_hot(lag_of, shape.lags, dtype=w.dtype),
-                w * flags[4], w * flags[5], jnp.sum(w * flags[6]),
-            )  # fmt: skip
-
-        signed = side * coef
-        return {
-            "dts": dts, "count": count, "onehot": onehot, "scale": scale, "friction": friction,
-            "delay": delay / mean_step, "delay_input": delay_input, "taus": taus,
-            "lag_times": lag_times, "lag_input": lag_input, "model": weights(signed),
-            "explained": weights(jnp.where(side < 0, signed, 0.0)),
-        }  # fmt: skip
-
-    def at(s, table, count):
-        """The table's columns at sample time s, linear between samples; and the sample."""
-        k = jnp.clip(jnp.floor(s).astype(jnp.int32), 0, count - 2)
-        w = s - k
-        return table[..., k] * (1 - w) + table[..., k + 1] * w, k
-
-    def total(s, y, now, p, table, weights):
-        """The weighted sum of the parts that do not hold a, and the coefficient of a."""
-        mono, tanh_w, memory_w, lag_w, delay_w, friction_w, accel = weights
-        x, v = y[0], y[1]
-        z = jnp.concatenate([jnp.stack([x, v]), now])
-        powers = jnp.stack([z**k for k in range(DEGREE + 1)], axis=1)  # (channels, degree + 1)
-        monomials = jnp.prod(jnp.einsum("pck,ck->pc", p["onehot"], powers), axis=1)
-        fc, b, v0 = p["friction"][:, 0], p["friction"][:, 1], p["friction"][:, 2]
-        value = (
-            jnp.dot(mono, monomials) + jnp.dot(tanh_w, jnp.tanh(v / p["scale"]))
-            + jnp.dot(friction_w, (fc + b * jnp.abs(v)) * jnp.tanh(v / v0))
-            + jnp.dot(memory_w, y[2 : 2 + m]) + jnp.dot(lag_w, y[2 + m :])
-        )  # fmt: skip
-        if shape.delays:
-            late = jax.vmap(lambda d, i: at(s - d, table, p["count"])[0][i])(
-                p["delay"], p["delay_input"])  # fmt: skip
-            value = value + jnp.dot(delay_w, late)
-        return value, accel
+        return _prepare(shape, program, dts, count, coef, taus, lag_times)
 
     def rates(s, y, args):
         """dy/dt, the acceleration solved from the balance (the disturbance a force on the
         model side); and the step dt/ds there."""
         p, table, noise = args
-        now, k = at(s, table, p["count"])
-        force = at(s, noise, p["count"])[0]
-        value, accel = total(s, y, now, p, table, p["model"])
+        now, k = _at(s, table, p["count"])
+        force = _at(s, noise, p["count"])[0]
+        value, accel = _total(shape, s, y, now, p, table, p["model"])
         a = -(value + force) / accel
         dq = -y[2 : 2 + m] / p["taus"] + y[1]
         dlag = (now[p["lag_input"]] - y[2 + m :]) / p["lag_times"]
@@ -197,7 +213,7 @@ def vector_field(shape: Shape):
     def explained(s, y, args):
         p, table, _ = args
         dy, _, now = rates(s, y, args)
-        value, accel = total(s, y, now, p, table, p["explained"])
+        value, accel = _total(shape, s, y, now, p, table, p["explained"])
         return -value - accel * dy[1]
 
     return prepare, field, explained
