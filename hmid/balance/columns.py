@@ -106,16 +106,20 @@ class Plan:
     def width(self) -> int:
         return sum(len(keep) for _, _, keep in self.parts)
 
-    def assemble(self) -> Columns:
-        chosen = [c.select(list(keep)) for _, c, keep in self.parts]
-        if not chosen:
-            return Columns.empty(self.n)
+    def assemble(self, rows: np.ndarray | None = None) -> Columns:
+        """The design in one array: on every row, or on ``rows`` only (a mask or indices; the
+        rows are taken before the columns, so a long log's design is never held whole)."""
+        if not self.parts:
+            return Columns.empty(self.n if rows is None else len(np.arange(self.n)[rows]))
+        values = [(c.values if rows is None else c.values[rows])[:, list(keep)]
+                  for _, c, keep in self.parts]  # fmt: skip
+        picked = [(c, j) for _, c, keep in self.parts for j in keep]
         return Columns(
-            tuple(name for c in chosen for name in c.names),
-            tuple(unit for c in chosen for unit in c.units),
-            np.hstack([c.values for c in chosen]),
-            tuple(p for c in chosen for p in c.positive),
-            tuple(r for c in chosen for r in c.reads),
+            tuple(c.names[j] for c, j in picked),
+            tuple(c.units[j] for c, j in picked),
+            np.hstack(values),
+            tuple(c.positive[j] for c, j in picked),
+            tuple(c.reads[j] for c, j in picked),
         )
 
 

@@ -80,8 +80,9 @@ class Structure:
             signals = signals.derived(key, partial(placed.term.transform, signals, placed.value))
         return signals
 
-    def columns(self, signals: Signals) -> Columns:
-        return self.plan(signals).assemble()
+    def columns(self, signals: Signals, rows: np.ndarray | None = None) -> Columns:
+        """The design on every row of ``signals`` (or on ``rows`` only)."""
+        return self.plan(signals).assemble(rows)
 
     def plan(self, signals: Signals) -> Plan:
         """The design's parts, not yet assembled (:class:`~hmid.balance.columns.Plan`)."""

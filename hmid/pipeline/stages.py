@@ -399,7 +399,7 @@ def export(config: ExperimentConfig, split: Split, fit: list[Fitted], friction) 
     that cannot be exported gets its one-line reason instead (the run goes on)."""
     from hmid.portable.export import model_document
 
-    data = FitData(split.signals, config.rig, "train")
+    data = FitData(_export_rows(split.signals), config.rig, "train")
     settings = {
         "units": log_units(config),
         "denoise": config.denoise.model_dump(mode="json"),
@@ -414,6 +414,22 @@ def export(config: ExperimentConfig, split: Split, fit: list[Fitted], friction) 
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
             out[model.name] = f"not exported: {err}"
     return out
+
+
+#: A model file's coefficients are found (and checked against the model) on the first rows of
+#: the signals that hold this many training rows: exact where the model lies in its terms' span
+#: (every shipped family), and a long log's design is never held whole for it
+EXPORT_ROWS = 50_000
+
+
+def _export_rows(signals: Signals) -> Signals:
+    """The first rows of ``signals`` that hold :data:`EXPORT_ROWS` training rows (all of them
+    where there are fewer): a set of their own, so the terms' columns are computed there only."""
+    rows = np.flatnonzero(signals.train)
+    if len(rows) <= EXPORT_ROWS:
+        return signals
+    head = signals.frame.iloc[: rows[EXPORT_ROWS - 1] + 1].reset_index(drop=True)
+    return Signals(head, signals.units, signals.channels, signals.position, signals.smoother)
 
 
 def freerun(config: ExperimentConfig, split: Split, fit: list[Fitted], export: dict) -> dict:

@@ -42,8 +42,11 @@ def term_dicts(terms) -> list[dict]:
 def _coefficients(fitted: Fitted, data: FitData, terms) -> tuple[dict, dict]:
     """The coefficients of ``terms``' columns, and their agreement with the model's own
     one-step predictions on the training rows."""
-    columns = Structure.of(terms).columns(data.signals)
-    values = columns.values[data.rows]
+    # only the training rows, and nothing kept for the next model: the terms' columns of a long
+    # log, held for every model, cost several times the log
+    with data.signals.scoped():
+        columns = Structure.of(terms).columns(data.signals, rows=data.rows)
+    values = columns.values
     predicted = fitted.predict(data)
     own = getattr(fitted.model, "coef", None)
     if own is not None and tuple(getattr(fitted.model, "names", ())) == tuple(columns.names):
