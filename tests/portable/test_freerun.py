@@ -177,3 +177,8 @@ def test_a_long_logs_blocks_are_sampled_within_the_budget_and_said():
     assert [r[0] for r in kept] == [r[0] for r in spans[::7]]  # 6 blocks, 60 s: the least stride
     assert note.startswith("free run on 6 of 40 held-out blocks (every 7th")
     assert within_budget(spans[:3], 1e-3) == (spans[:3], "")
+    one = [np.arange(200_000)]  # a single block of 200 s: its first minute
+    kept, note = within_budget(one, 1e-3)
+    assert (
+        len(kept) == 1 and len(kept[0]) == 60_000 and note.startswith("free run on the first 60 s")
+    )

@@ -47,21 +47,22 @@ FREE_RUN_BUDGET_S = 60.0
 
 def within_budget(spans: list[np.ndarray], dt: float) -> tuple[list[np.ndarray], str]:
     """Every ``stride``-th span, the least stride whose spans last at most
-    :data:`FREE_RUN_BUDGET_S` (evenly spread over the log: the same blocks every run), and what
-    was left out, in words ("" when every span is kept)."""
+    :data:`FREE_RUN_BUDGET_S` (evenly spread over the log: the same blocks every run), or the
+    first span's first :data:`FREE_RUN_BUDGET_S` where no stride fits; and what was left out,
+    in words ("" when every span is kept)."""
     total = sum(len(rows) for rows in spans) * dt
     if total <= FREE_RUN_BUDGET_S:
         return spans, ""
+    budget = f"at most {FREE_RUN_BUDGET_S:g} s of held-out time per model; {total:.0f} s in all"
     for stride in range(2, len(spans) + 1):
         kept = spans[::stride]
         if sum(len(rows) for rows in kept) * dt <= FREE_RUN_BUDGET_S:
-            break
-    else:
-        kept = spans[:1]
-    return kept, (
-        f"free run on {len(kept)} of {len(spans)} held-out blocks (every {_nth(stride)}: at most "
-        f"{FREE_RUN_BUDGET_S:g} s of held-out time per model; {total:.0f} s in all)"
-    )
+            return kept, (
+                f"free run on {len(kept)} of {len(spans)} held-out blocks (every "
+                f"{_nth(stride)}: {budget})"
+            )
+    first = spans[0][: max(int(FREE_RUN_BUDGET_S / dt), 10)]
+    return [first], f"free run on the first {len(first) * dt:.0f} s of the held-out rows ({budget})"
 
 
 def _nth(n: int) -> str:
