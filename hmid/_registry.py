@@ -10,18 +10,18 @@ from pydantic import BaseModel, ValidationError
 from hmid._messages import format_validation_error
 from hmid.errors import ConfigError
 
-M = TypeVar("M", bound=BaseModel)
+_M = TypeVar("_M", bound=BaseModel)
 
 
 def from_registry(
-    spec: Mapping[str, Any] | M,
-    base: type[M],
-    registry: Mapping[str, type[M]],
+    spec: Mapping[str, Any] | _M,
+    base: type[_M],
+    registry: Mapping[str, type[_M]],
     *,
     tag: str,
     what: str,
     source: str,
-) -> M:
+) -> _M:
     """``registry[spec[tag]]`` validated from ``spec`` (an instance of ``base`` passes through);
     an absent or unknown tag, or a bad key, is a one-line ConfigError naming ``source``."""
     if isinstance(spec, base):

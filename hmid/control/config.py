@@ -19,7 +19,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from hmid._messages import format_validation_error
 from hmid.config import Positive, read_yaml
-from hmid.control.references import KINDS, Kind
+from hmid.control.references import REFERENCE_KINDS, ReferenceKind
 from hmid.errors import ConfigError
 from hmid.simulate.effects import make_effect
 from hmid.simulate.params import RigParams
@@ -171,7 +171,7 @@ class ControlConfig(_Strict):
     step_at: Annotated[float, Field(ge=0)] = 1.0
     transition: Positive = 0.25
     frequency: Positive = 1.0
-    references: tuple[Kind, ...] = KINDS
+    references: tuple[ReferenceKind, ...] = REFERENCE_KINDS
     noise: bool = True  # the sensors' noise (the demo's: 15 um, 6 mN)
     tasks: TrackingTasks = TrackingTasks()
     controller: ControllerSection = ControllerSection()

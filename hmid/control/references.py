@@ -16,8 +16,8 @@ from typing import Literal
 
 import numpy as np
 
-Kind = Literal["step_up", "step_down", "sine", "gait"]
-KINDS: tuple[Kind, ...] = ("step_up", "step_down", "sine", "gait")
+ReferenceKind = Literal["step_up", "step_down", "sine", "gait"]
+REFERENCE_KINDS: tuple[ReferenceKind, ...] = ("step_up", "step_down", "sine", "gait")
 
 #: The gait-like shape: (harmonic, sine amplitude, cosine amplitude), normalised after summing
 _GAIT = ((1, 1.0, 0.35), (2, 0.45, -0.25), (3, -0.2, 0.12), (4, 0.08, 0.06))
@@ -30,7 +30,7 @@ class Reference:
     ``settle_from`` is where a step's transition ends (NaN where the task has no step) and
     ``size`` its height (the settling band's scale)."""
 
-    kind: Kind
+    kind: ReferenceKind
     t: np.ndarray
     y: np.ndarray
     dy: np.ndarray
@@ -49,7 +49,7 @@ def _quintic(s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def reference(
-    kind: Kind,
+    kind: ReferenceKind,
     t: np.ndarray,
     low: float,
     high: float,
@@ -77,7 +77,7 @@ def reference(
     elif kind == "gait":
         shape, dshape, ddshape = _gait(w, t)
     else:
-        raise ValueError(f"reference kind {kind!r} is not one of {KINDS}")
+        raise ValueError(f"reference kind {kind!r} is not one of {REFERENCE_KINDS}")
     # fade in over one period: a quintic envelope times the shape about its start
     env, denv, ddenv = _quintic(t * frequency)
     denv, ddenv = denv * frequency, ddenv * frequency**2

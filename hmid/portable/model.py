@@ -148,7 +148,7 @@ class Model:
     def simulate(self, t, inputs, x0: float, v0: float = 0.0, memory0=None):
         """Free run from the state (``x0``, ``v0``; memory arms ``memory0``, default at rest)
         over the times ``t``, driven by ``inputs`` (channel -> values at ``t``, SI units, the
-        rig's sign convention): a :class:`~hmid.portable.freerun.Trajectory`."""
+        rig's sign convention): a :class:`~hmid.portable.freerun.FreeTrajectory`."""
         return self.simulator.integrate(t, inputs, x0, v0, memory0)
 
     def free_run(self, log: Log):

@@ -63,7 +63,7 @@ def unique_names(logs: Iterable[Any]) -> None:
         raise ValueError(f"log names must be unique; repeated: {dupes}")
 
 
-class LogEntry(Protocol):
+class LogSpecLike(Protocol):
     """What the truth record reads of a log entry (each rig's own pydantic model)."""
 
     @property
@@ -122,7 +122,7 @@ class RigDataset(BaseModel):
 
 def truth_record(
     config: RigDataset,
-    spec: LogEntry,
+    spec: LogSpecLike,
     seed: int,
     params: dict[str, Any],
     tail: dict[str, Any],

@@ -142,15 +142,22 @@ def integrate(
         params, init, xs = rig.prepare(inputs, rate, substeps)
         out = _scan_jit(type(rig).sample, params, init, xs, substeps)
         out = {k: np.asarray(v) for k, v in out.items()}
+    t = _sample_times(rig, out, rate, "simulation", rig.diverged)
+    return rig.trajectory(t, rate, inputs, out)
+
+
+def _sample_times(rig: SimulatedRig, out: Mapping[str, np.ndarray], rate: float, run: str,
+                  advice: str) -> np.ndarray:  # fmt: skip
+    """The samples' times; :class:`SimulationError` at the first sample whose raw outputs left
+    finite values."""
     n = len(out[rig.finite[0]])
     t = np.arange(rig.first_sample, n + rig.first_sample) / rate
     bad = ~np.logical_and.reduce([np.isfinite(out[k]) for k in rig.finite])
     if bad.any():
         raise SimulationError(
-            f"the {rig.name} simulation left finite values at t = {t[np.argmax(bad)]:.4f} s; "
-            f"{rig.diverged}"
+            f"the {rig.name} {run} left finite values at t = {t[np.argmax(bad)]:.4f} s; {advice}"
         )
-    return rig.trajectory(t, rate, inputs, out)
+    return t
 
 
 class Controller(Protocol):
@@ -237,13 +244,6 @@ def closed_loop(
         )  # fmt: skip
         out = {k: np.asarray(v) for k, v in out.items()}
         commands = {k: np.asarray(v) for k, v in commands.items()}
-    n = len(out[rig.finite[0]])
-    t = np.arange(rig.first_sample, n + rig.first_sample) / rate
-    bad = ~np.logical_and.reduce([np.isfinite(out[k]) for k in rig.finite])
-    if bad.any():
-        raise SimulationError(
-            f"the {rig.name} closed loop left finite values at t = {t[np.argmax(bad)]:.4f} s; "
-            f"{rig.diverged}, and the controller's gains"
-        )
+    t = _sample_times(rig, out, rate, "closed loop", f"{rig.diverged}, and the controller's gains")
     driven = {**inputs, **commands}
     return rig.trajectory(t, rate, driven, out), commands

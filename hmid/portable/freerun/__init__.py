@@ -12,7 +12,7 @@ blocks.
 
 from hmid.portable.freerun.band import Calibration, calibrate, coefficient_draws, disturbances
 from hmid.portable.freerun.equation import Equation, NotSimulable, equation
-from hmid.portable.freerun.integrator import Simulator, Trajectory, simulator
+from hmid.portable.freerun.integrator import FreeTrajectory, Simulator, simulator
 from hmid.portable.freerun.run import blocks, chunks, free_run, simulate_signals, within_budget
 from hmid.portable.freerun.scores import BlockRun, FreeRun
 
@@ -21,9 +21,9 @@ __all__ = [
     "Calibration",
     "Equation",
     "FreeRun",
+    "FreeTrajectory",
     "NotSimulable",
     "Simulator",
-    "Trajectory",
     "blocks",
     "calibrate",
     "chunks",

@@ -124,7 +124,7 @@ def _hermite(ts, ys, f, grid):
 
 
 @dataclass(frozen=True)
-class Trajectory:
+class FreeTrajectory:
     """A free run: position, velocity and the explained quantity (None where it is an input)
     at the times asked for; ``ok`` False if the solver stopped early (NaN after that)."""
 
@@ -196,7 +196,7 @@ class Simulator:
 
     def integrate(self, t, inputs, x0: float, v0: float = 0.0, memory0=None, *,
                   coefficients: Coefficients | None = None, disturbance=None,
-                  size: int | None = None) -> Trajectory:  # fmt: skip
+                  size: int | None = None) -> FreeTrajectory:  # fmt: skip
         """Run from (x0, v0) and the memory arms' states ``memory0`` (default: at rest) over
         the times ``t``, driven by ``inputs`` (name -> values at ``t``); ``coefficients``
         replaces :meth:`coefficients` (a posterior draw); ``disturbance`` is a force added to
@@ -216,7 +216,9 @@ class Simulator:
             ys, force, ok = self.run(*jax.tree.map(jnp.asarray, arrays))
             ys, force = np.asarray(ys)[:n], np.asarray(force)[:n]
         output = any(k == "accel" for k, _, _ in self.equation.lhs)
-        return Trajectory(np.asarray(t), ys[:, 0], ys[:, 1], force if output else None, bool(ok))
+        return FreeTrajectory(
+            np.asarray(t), ys[:, 0], ys[:, 1], force if output else None, bool(ok)
+        )
 
     def positions(self, t, inputs, x0, v0, memory0, draws: list[Coefficients],
                   disturbances: np.ndarray, stride: int = 1,

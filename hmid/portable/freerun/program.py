@@ -21,7 +21,7 @@ import numpy as np
 from hmid.portable.freerun.equation import Equation, NotSimulable
 
 #: The kinds of a part of the balance, in the order of :class:`Program`'s flags.
-KINDS = ("mono", "tanh", "memory", "lag", "delay", "friction", "accel")
+TERM_KINDS = ("mono", "tanh", "memory", "lag", "delay", "friction", "accel")
 #: Parts are padded to a multiple of this, powers to this degree
 PARTS, DEGREE = 24, 4
 
@@ -54,7 +54,7 @@ class Shape(NamedTuple):
 @dataclass(frozen=True)
 class Program:
     """An equation's parts as arrays: ``side`` +1 on the model side, -1 on the explained side, 0
-    for padding; ``flags`` one row per kind of :data:`KINDS`; ``powers`` the exponents of x, v
+    for padding; ``flags`` one row per kind of :data:`TERM_KINDS`; ``powers`` the exponents of x, v
     and the inputs; the rest each kind's data. Padded memory arms and lags are states that no
     part reads."""
 
@@ -77,7 +77,7 @@ class Program:
         lag_input = np.zeros(shape.lags, dtype=np.int32)
         lag_input[: len(eq.lags)] = [eq.inputs.index(name) for name, _ in eq.lags]
         out: dict[str, Any] = {
-            "side": np.zeros(n), "flags": np.zeros((len(KINDS), n)),
+            "side": np.zeros(n), "flags": np.zeros((len(TERM_KINDS), n)),
             "powers": np.zeros((n, 2 + shape.inputs), dtype=np.int32), "scale": np.ones(n),
             "memory": np.zeros(n, dtype=np.int32), "lag": np.zeros(n, dtype=np.int32),
             "delay_input": np.zeros(n, dtype=np.int32), "delay": np.zeros(n),
@@ -87,7 +87,7 @@ class Program:
             out["side"][i] = side
             if kind == "const":
                 kind = "mono"
-            out["flags"][KINDS.index(kind), i] = 1.0
+            out["flags"][TERM_KINDS.index(kind), i] = 1.0
             if kind == "mono" and data is not None:
                 for name, power in _rename(data, position):
                     if power > DEGREE:

@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from hmid.portable.freerun.band import Calibration
-from hmid.portable.freerun.integrator import Trajectory
+from hmid.portable.freerun.integrator import FreeTrajectory
 
 
 @dataclass(frozen=True)
@@ -90,7 +90,7 @@ class FreeRun:
         }
 
 
-def score_block(rig, signals, rows, run: Trajectory, band=None) -> BlockRun:
+def score_block(rig, signals, rows, run: FreeTrajectory, band=None) -> BlockRun:
     """The run of ``rows`` beside what was measured there, and where it diverged if it did."""
     x_meas = signals[rig.position][rows]
     v_meas = signals["v"][rows]
