@@ -14,9 +14,15 @@ ROOT = Path(__file__).resolve().parents[2]
 SHIPPED = sorted(
     path
     for path in (ROOT / "configs").rglob("*.yaml")
-    if isinstance(data := yaml.safe_load(path.read_text()), dict) and data.get("rig")
+    if "simulate" not in path.relative_to(ROOT / "configs").parts  # data-set configs
+    and isinstance(data := yaml.safe_load(path.read_text()), dict) and data.get("rig")
     and data.get("logs")
 )  # fmt: skip
+#: Experiment configs whose data a make target generates rather than the repository ships
+GENERATED = {
+    "fibre-gastrocnemius.yaml": "make fibre-models",
+    "fibre-soleus.yaml": "make fibre-models",
+}
 
 
 def test_the_shipped_rigs_are_the_documented_four():
@@ -33,6 +39,8 @@ def test_every_shipped_rig_runs_through_every_stage(path, tmp_path):
     except ConfigError as err:
         if "shared" in str(err):
             pytest.skip(f"measured data absent: {err}")
+        if path.name in GENERATED and "does not exist" in str(err):
+            pytest.skip(f"its data come from `{GENERATED[path.name]}` (tests/control makes them)")
         raise
     cheap = tuple(type(m).example(config.rig) if m.family == "sls" else m for m in config.models)
     config = config.model_copy(update={"models": cheap})
