@@ -68,3 +68,19 @@ def test_the_controller_must_be_told_every_output_it_may_read():
             HydroMuscle(RigParams()), PassThrough(), np.zeros(10), 1000.0,
             initial_inputs={"P_cmd": np.full(10, 1e5)}, initial_outputs={"x": 0.0},
         )  # fmt: skip
+
+
+def test_the_rig_says_what_the_controller_reads_first_and_a_rig_without_it_says_so():
+    from hmid.simulate.rigs.linear_motor import LinearMotor, LinearMotorParams, PDController
+
+    rig = HydroMuscle(RigParams())
+    P = np.full(N, 1.2e5)
+    start = rig.initial_outputs({"P_cmd": P}, 1000.0)
+    open_ = integrate(rig, {"P_cmd": P}, 1000.0)
+    assert start["x"] == pytest.approx(open_.x[0], abs=1e-9)  # at rest at the equilibrium
+    default, _ = closed_loop(rig, PassThrough(), P, 1000.0, initial_inputs={"P_cmd": P})
+    np.testing.assert_allclose(default.x, open_.x, rtol=0, atol=1e-12)
+    stage = LinearMotor(LinearMotorParams(), PDController(), encoder_step=1e-6)
+    with pytest.raises(NotImplementedError, match="does not run in a closed loop"):
+        closed_loop(stage, PassThrough(), np.zeros(10), 1000.0,
+                    initial_inputs={"r": np.zeros(10)})  # fmt: skip
