@@ -40,6 +40,7 @@ import numpy as np
 
 from hmid.control.actuation import Actuation, Proportional
 from hmid.control.inverse import ForceLaw, lead
+from hmid.control.plant import lagged
 from hmid.control.references import Reference
 from hmid.simulate.effects import Effect
 from hmid.simulate.params import FrictionParams, MuscleParams, RigParams
@@ -245,7 +246,6 @@ class AnkleRig:
 
 def linearise(plant: AnkleRig, laws: FibreLaws, theta0: float, P0: float, valve_tau: float):
     """The balance's Jacobian at rest at ``theta0`` with ``P0`` in the engaged fibres."""
-    import control
 
     p = plant.params
     arms = [(i, data[0], data[1], c) for i, law in enumerate(laws.laws)
@@ -285,12 +285,7 @@ def linearise(plant: AnkleRig, laws: FibreLaws, theta0: float, P0: float, valve_
     for j, (tau, stiffness) in enumerate(lumped.items()):
         A[1, 2 + j] = 1 / J
         A[2 + j, 2 + j], A[2 + j, 1] = -1 / tau, -stiffness
-    A[n - 1, n - 1] = -1 / valve_tau
-    B = np.zeros((n, 1))
-    B[n - 1, 0] = 1 / valve_tau
-    C = np.zeros((1, n))
-    C[0, 0] = 1.0
-    return control.ss(A, B, C, np.zeros((1, 1)))
+    return lagged(A, valve_tau)
 
 
 def full_torque(plant: AnkleRig, laws: FibreLaws, engaged: Sequence[int], theta) -> np.ndarray:

@@ -187,12 +187,7 @@ class MuscleRig:
         for arm, (tau, c) in arms.items():
             A[1, 2 + arm] = c / mass
             A[2 + arm, 2 + arm], A[2 + arm, 1] = -1 / tau, 1.0
-        A[n - 1, n - 1] = -1 / valve_tau
-        B = np.zeros((n, 1))
-        B[n - 1, 0] = 1 / valve_tau
-        C = np.zeros((1, n))
-        C[0, 0] = 1.0
-        return control.ss(A, B, C, np.zeros((1, 1)))
+        return lagged(A, valve_tau)
 
     def with_muscle(self, muscle: MuscleParams) -> MuscleRig:
         return replace(self, params=self.params.model_copy(update={"muscle": muscle}))
@@ -202,3 +197,19 @@ class MuscleRig:
 
     def with_on_off(self, valves: OnOffValves, actuation: Actuation) -> MuscleRig:
         return replace(self, valves=valves, actuation=actuation)
+
+
+def lagged(A: np.ndarray, valve_tau: float) -> Any:
+    """The linearised plant as python-control's state space: ``A``'s mechanical rows, its last
+    state the pressure, which follows the command through the valve's first-order lag; the
+    output is the first state (the tracked position or angle)."""
+    import control
+
+    n = len(A)
+    A = A.copy()
+    A[n - 1, n - 1] = -1 / valve_tau
+    B = np.zeros((n, 1))
+    B[n - 1, 0] = 1 / valve_tau
+    C = np.zeros((1, n))
+    C[0, 0] = 1.0
+    return control.ss(A, B, C, np.zeros((1, 1)))
