@@ -108,7 +108,9 @@ class _Pool:
         for process in self.processes:
             process.kill()
         for process in self.processes:
-            process.join(timeout=1.0)
+            # a killed process is gone at once, but on a loaded machine its reaping can lag a
+            # second (it then stays listed as an active child)
+            process.join(timeout=5.0)
 
 
 @contextmanager

@@ -38,3 +38,11 @@ def warn(text: str) -> int:
 
     warnings.warn(text, UserWarning, stacklevel=1)
     return os.getpid()
+
+
+def write_pid_then_sleep(path: Path, seconds: float) -> None:
+    """Say which process runs this task, then keep it busy."""
+    import time
+
+    write_pid(path)
+    time.sleep(seconds)

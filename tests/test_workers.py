@@ -126,15 +126,19 @@ def test_a_dead_worker_s_figures_are_drawn_here(tmp_path):
     assert drawing.workers == 0
 
 
-def test_shutdown_stops_a_busy_worker_at_once():
-    """The workers are stopped, not waited for: a task may have minutes left."""
-    import multiprocessing
-
+def test_shutdown_stops_a_busy_worker_at_once(tmp_path):
+    """The workers are stopped, not waited for: a task may have minutes left. (Judged by the
+    busy worker's own pid: other tests' pools may still be starting or ending processes.)"""
     workers_module.shutdown()  # a pool left by an earlier test is not this test's
-    before = set(multiprocessing.active_children())  # e.g. a sweep's or a cluster's processes
     tasks = Tasks(workers=1).start()
-    tasks.submit(time.sleep, 60.0)
+    pid_file = tmp_path / "busy.pid"
+    tasks.submit(_worker_tasks.write_pid_then_sleep, pid_file, 60.0)
+    deadline = time.monotonic() + 60
+    while not pid_file.exists() and time.monotonic() < deadline:
+        time.sleep(0.05)  # the worker has begun the task
+    busy = int(pid_file.read_text())
     started = time.monotonic()
     workers_module.shutdown()
     assert time.monotonic() - started < 10.0
-    assert not set(multiprocessing.active_children()) - before
+    with pytest.raises(ProcessLookupError):  # killed and reaped
+        os.kill(busy, 0)
