@@ -5,6 +5,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from _small_run import small_run
 
 from hmid.config import load_yaml_model
 from hmid.simulate.rigs.hydro_muscle_dataset import HydroMuscleDataset
@@ -26,29 +27,9 @@ logs:
 @pytest.fixture(scope="session")
 def identified(tmp_path_factory) -> Path:
     """The experiment folder (results/<name>) of a complete run with an SLS model file."""
-    from pipelines.identify import run
-
     root = tmp_path_factory.mktemp("control-models")
-    (root / "set.yaml").write_text(DATASET)
-    write_dataset(load_yaml_model(root / "set.yaml", HydroMuscleDataset), root / "data")
-    config = {
-        "name": "muscle",
-        "seed": 3,
-        "rig": yaml.safe_load((ROOT / "configs/demo.yaml").read_text())["rig"],
-        "logs": [
-            {"path": "data/sine.csv", "columns": "data/columns-dynamic.yaml", "role": "dynamic"},
-            {"path": "data/chirp.csv", "columns": "data/columns-dynamic.yaml", "role": "dynamic"},
-            {"path": "data/ff1.csv", "columns": "data/columns-free_fall.yaml", "role": "free_fall"},
-            {"path": "data/ff2.csv", "columns": "data/columns-free_fall.yaml", "role": "free_fall"},
-        ],
-        "split": {"kind": "time_block", "validation_fraction": 0.25},
-        "models": [
-            {"family": "sls", "stride": 4},
-            {"family": "polynomial", "variants": ["cubic_xv"]},
-        ],
-    }
-    (root / "exp.yaml").write_text(yaml.safe_dump(config))
-    folder, _ = run(root / "exp.yaml", results=root / "results")
+    models = [{"family": "sls", "stride": 4}, {"family": "polynomial", "variants": ["cubic_xv"]}]
+    folder = small_run(root, DATASET, "muscle", models)
     return folder.parent
 
 

@@ -6,15 +6,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 from _model_reference import predict as reference_predict
+from _small_run import small_run
 
 import hmid
-from hmid.config import load_yaml_model
 from hmid.io import load_column_map, read_log
-from hmid.simulate.rigs.hydro_muscle_dataset import HydroMuscleDataset
-from hmid.simulate.write import write_dataset
-from pipelines.identify import run
 
 DATASET = """
 seed: 78
@@ -30,26 +26,8 @@ ROOT = Path(__file__).resolve().parents[2]
 @pytest.fixture(scope="module")
 def finished(tmp_path_factory):
     root = tmp_path_factory.mktemp("portable")
-    (root / "set.yaml").write_text(DATASET)
-    write_dataset(load_yaml_model(root / "set.yaml", HydroMuscleDataset), root / "data")
-    config = {
-        "name": "portable",
-        "seed": 3,
-        "rig": yaml.safe_load((ROOT / "configs/demo.yaml").read_text())["rig"],
-        "logs": [
-            {"path": "data/sine.csv", "columns": "data/columns-dynamic.yaml", "role": "dynamic"},
-            {"path": "data/chirp.csv", "columns": "data/columns-dynamic.yaml", "role": "dynamic"},
-            {"path": "data/ff1.csv", "columns": "data/columns-free_fall.yaml", "role": "free_fall"},
-            {"path": "data/ff2.csv", "columns": "data/columns-free_fall.yaml", "role": "free_fall"},
-        ],
-        "split": {"kind": "time_block", "validation_fraction": 0.25},
-        "models": [
-            {"family": "polynomial", "variants": ["cubic_xvP"]},
-            {"family": "sls", "stride": 4},
-        ],
-    }
-    (root / "exp.yaml").write_text(yaml.safe_dump(config))
-    folder, _ = run(root / "exp.yaml", results=root / "results")
+    models = [{"family": "polynomial", "variants": ["cubic_xvP"]}, {"family": "sls", "stride": 4}]
+    folder = small_run(root, DATASET, "portable", models)
     log = read_log(root / "data/chirp.csv", load_column_map(root / "data/columns-dynamic.yaml"))
     return hmid.load_run(folder), log
 
