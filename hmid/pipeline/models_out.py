@@ -106,13 +106,14 @@ def free_run_table(free_runs: dict, unit: str, position: str | None) -> pd.DataF
             f"band coverage ({100 * run.level:g} %)" if run.level else "band coverage": scores.get(
                 "band coverage", np.nan),
             "band coverage (training)": np.nan if cal is None else cal.coverage,
+            "disturbance": "" if cal is None else cal.kind,
             "disturbance scale": cal.scale if cal is not None and cal.reachable else np.nan,
+            "cross-calibrated miss": np.nan if cal is None else cal.miss,
             "diverged": scores.get("diverged", 0),
             "first divergence [s]": np.nan if first is None else first,
             "note": run.skipped or "; ".join(sorted({r.reason for r in run.runs if r.reason} | (
                 {run.note} if run.note else set()) | (
-                {"band not calibrated: no disturbance scale reaches the level on the training "
-                 "blocks"} if cal is not None and not cal.reachable else set()))),
+                {cal.why_not()} if cal is not None and not cal.reachable else set()))),
         })  # fmt: skip
     return pd.DataFrame(rows)
 

@@ -59,3 +59,37 @@ def test_training_blocks_are_cut_to_the_held_out_length():
     pieces = chunks([np.arange(100), np.arange(200, 225), np.arange(300, 305)], 40)
     assert [len(p) for p in pieces] == [40, 40, 20, 25]  # the 5-row block: too short
     assert np.array_equal(np.concatenate(pieces[:3]), np.arange(100))
+
+
+def test_a_drift_is_a_random_walk_whose_variance_grows_as_the_time_run():
+    from hmid.portable.freerun.band import drifts
+
+    t = np.linspace(0.0, 4.0, 401)
+    walks = drifts(t, 20000, np.random.default_rng(4))
+    assert np.all(walks[:, 0] == 0)
+    np.testing.assert_allclose(walks[:, [100, 400]].var(axis=0), [1.0, 4.0], rtol=0.05)
+
+
+def _shaped(rng, shape: str, n: int = 600, draws: int = 40):
+    """A training chunk whose error has ``shape``: a random walk ("drift") or stationary
+    noise ("force"); returned as the force's chunk (stationary D) and the drift's (walks)."""
+    from hmid.portable.freerun.band import drifts
+
+    t = np.arange(n) / 100.0
+    walk = drifts(t, draws + 1, rng)
+    noise = rng.normal(size=(draws + 1, n))
+    error = 0.3 * (walk[0] if shape == "drift" else noise[0])
+    zeros = np.zeros((draws, n))
+    return (error, np.zeros(n), zeros, noise[1:]), (error, np.zeros(n), zeros, walk[1:])
+
+
+@pytest.mark.parametrize("shape", ["drift", "force"])
+def test_the_training_blocks_choose_the_shape_of_their_own_error(shape):
+    from hmid.portable.freerun.band import DRIFT, FORCE, choose
+
+    rng = np.random.default_rng(5)
+    pairs = [_shaped(rng, shape) for _ in range(16)]
+    found = choose([f for f, _ in pairs], [d for _, d in pairs], 0.9)
+    assert found.kind == (DRIFT if shape == "drift" else FORCE)
+    assert found.reachable and found.coverage == pytest.approx(0.9, abs=0.01)
+    assert found.miss < 0.1  # cross-calibrated, by horizon: within 10 points

@@ -182,3 +182,27 @@ def test_a_long_logs_blocks_are_sampled_within_the_budget_and_said():
     assert (
         len(kept) == 1 and len(kept[0]) == 60_000 and note.startswith("free run on the first 60 s")
     )
+
+
+def test_the_regularisation_is_as_small_as_a_sample_step_integrates_stably():
+    # a 95 kg stage with 20 N of Coulomb friction logged at 1 kHz, fitted with a 2 mm/s cut-off:
+    # near v = 0 the friction damps at Fc / (M v0); one sample stays stable while
+    # dt Fc / (M v0) <= 2, so v0 = dt Fc / (2 M) = 0.105 mm/s, and a push of half the level
+    # creeps at v0 atanh(1/2) (0.06 mm/s) rather than 1.1 mm/s at the cut-off
+    from hmid.portable.freerun import simulator
+    from hmid.portable.freerun.equation import free_run_v0
+
+    M, Fc, dt = 95.0, 20.0, 1e-3
+    model = _model([MASS, COULOMB], [M, Fc])
+    document = model.document | {"fit": {"v_deadband": 2e-3}, "sample_rate_hz": 1 / dt}
+    model = Model(document)
+    v0 = dt * Fc / (2 * M)
+    assert free_run_v0(model) == pytest.approx(v0)
+    t = np.arange(2001) * dt
+    u = np.full_like(t, Fc / 2)
+    run = model.simulate(t, {"u": u}, x0=0.0)
+    assert run.v[-1] == pytest.approx(v0 * np.arctanh(0.5), rel=1e-3)
+    # the band's fixed steps of one sample follow the error-controlled run there
+    sim = simulator(model)
+    fixed = sim.positions(t, {"u": u}, 0.0, 0.0, None, [sim.coefficients()], np.zeros((1, len(t))))
+    assert np.max(np.abs(fixed[0] - run.x)) < 1e-3 * np.ptp(run.x)

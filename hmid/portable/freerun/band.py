@@ -16,12 +16,22 @@ scale at which the band covers the measured position at the nominal level there.
 blocks' coverage, reported, is then an honest check, never the target. A model whose
 coefficient band alone covers more than the level gets ``s = 0`` (the band is then wider than
 nominal, and says so); one that no scale brings to the level (its draws diverge) says that.
+
+A force is not the only shape of what a model misses. Where friction holds the stage (a stick
+band), a small force moves nothing, and the free run's error is a slow drift while it slides:
+no scale of a force reaches the level there. So a second disturbance is offered, a drift of
+the position itself (a random walk from the block's measured start: an output error whose
+spread grows as the square root of the time run), and the training blocks choose between the
+two by two-fold cross-calibration (:func:`cross_miss`): the scale is calibrated on half of
+them and the coverage checked on the other half, early and late in the blocks, and the shape
+whose coverage there misses the level least is kept (the force on a tie: it is the physical
+one).
 """
 
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -84,14 +94,42 @@ def disturbances(model, n: int, draws: int, rng) -> np.ndarray:
     return lfilter([1.0], [1.0, -phi], e, axis=1, zi=(phi * start)[:, None])[0]
 
 
+def drifts(t: np.ndarray, draws: int, rng) -> np.ndarray:
+    """``draws`` random walks of the position at the times ``t``, each from 0 at the first,
+    with a variance of 1 (position unit)^2 per second: the drift disturbance at scale 1."""
+    steps = rng.standard_normal((draws, len(t) - 1)) * np.sqrt(np.diff(t))
+    return np.concatenate([np.zeros((draws, 1)), np.cumsum(steps, axis=1)], axis=1)
+
+
+#: The shapes of disturbance a band can carry (see the module's docstring)
+FORCE, DRIFT = "force", "drift"
+
+
 @dataclass(frozen=True)
 class Calibration:
-    """The disturbance's scale and the band's coverage on the training blocks at that scale."""
+    """The disturbance's shape and scale, and the band's coverage on the training blocks at
+    that scale; ``miss``: its two-fold cross-calibrated coverage's distance from the level."""
 
     scale: float
     coverage: float
     samples: int  # the training samples it was calibrated on
     reachable: bool = True  # False: no scale up to the largest tried reaches the level
+    kind: str = FORCE
+    miss: float = np.nan
+    diverging: float = 0.0  # the share of coefficient draws that diverge on the training blocks
+
+    def why_not(self) -> str:
+        """Why the band is not calibrated, in words ("" where it is)."""
+        if self.reachable:
+            return ""
+        if self.diverging > 0.5:
+            return (f"band not calibrated: {100 * self.diverging:.0f} % of the coefficient draws "
+                    "diverge on the training blocks (the model is stable near its estimate "
+                    "only)")  # fmt: skip
+        return (
+            "band not calibrated: no disturbance scale reaches the level on the training "
+            f"blocks ({100 * self.coverage:.0f} % at the largest tried)"
+        )
 
 
 def quantile_band(runs: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarray]:
@@ -115,34 +153,110 @@ def quantile_band(runs: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarra
 
 
 def calibrate(chunks: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]], level: float,
-              largest: float = 1e4) -> Calibration:  # fmt: skip
+              reach: float = 1e4) -> Calibration:  # fmt: skip
     """The scale s of the disturbance at which the band covers ``level`` of the measured
     position over ``chunks``, each (measured, nominal, coefficient deviations, disturbance
     deviations): the runs of the coefficient draws without disturbance, less the nominal run,
     and of the nominal coefficients under a disturbance of scale 1, less the nominal run. Their
     sum, nominal + C + s D, stands for a draw of both (to first order: a free run responds to a
-    small force linearly), so s is found without a run per trial scale."""
+    small force linearly), so s is found without a run per trial scale.
+
+    The search starts where the disturbance's spread matches the nominal run's error, brackets
+    s by factors of 4 up to ``reach`` times that, then halves the bracket's logarithm seven
+    times (s to about 1 %)."""
     samples = sum(len(x) for x, *_ in chunks)
 
     def coverage(s: float) -> float:
-        inside = 0
-        for x, nominal, c, d in chunks:
-            lower, upper = quantile_band(nominal + c + s * d, level)
-            inside += int(np.sum((lower <= x) & (x <= upper)))
-        return inside / samples
+        return coverage_of(chunks, level, s)
 
-    low, covered = 0.0, coverage(0.0)
+    covered = coverage(0.0)
     if covered >= level:
         return Calibration(0.0, covered, samples)
-    high = 1.0
-    while (covered := coverage(high)) < level:
-        if high >= largest:
-            return Calibration(high, covered, samples, reachable=False)
-        low, high = high, high * 4
-    for _ in range(14):  # to ~1 % of s
-        middle = np.sqrt(low * high) if low else high / 4
+    start = _matched_scale(chunks)
+    low, high = start, start
+    if (covered := coverage(start)) < level:
+        while covered < level:
+            if high >= reach * start:
+                return Calibration(high, covered, samples, reachable=False)
+            low, high = high, high * 4
+            covered = coverage(high)
+    else:
+        while coverage(low) >= level and low > start / reach:
+            high, low = low, low / 4
+    for _ in range(7):
+        middle = np.sqrt(low * high)
         if coverage(middle) >= level:
             high = middle
         else:
             low = middle
     return Calibration(high, coverage(high), samples)
+
+
+def _matched_scale(chunks: list) -> float:
+    """The scale at which the disturbance's runs spread as far from the nominal run as the
+    measured position does (RMS over the chunks); 1 where either is zero or not finite."""
+    error = np.concatenate([x - nominal for x, nominal, _, _ in chunks])
+    spread = np.concatenate([d.ravel() for *_, d in chunks])
+    error, spread = error[np.isfinite(error)], spread[np.isfinite(spread)]
+    if not len(error) or not len(spread):
+        return 1.0
+    with np.errstate(over="ignore", invalid="ignore"):  # diverged draws: inf, then 1
+        ratio = np.sqrt(np.mean(error**2) / np.mean(spread**2)) if np.any(spread) else np.inf
+    return float(ratio) if np.isfinite(ratio) and ratio > 0 else 1.0
+
+
+#: A band's coverage is judged in this many spans of elapsed time (:func:`cross_miss`)
+HORIZONS = 4
+
+
+def cross_miss(chunks: list, level: float) -> float:
+    """How far the band misses the level on training blocks it was not calibrated on: the
+    scale calibrated on every other chunk, the coverage measured on the rest, both ways, in
+    each of :data:`HORIZONS` spans of the time run since the chunk's start; the mean distance
+    of those coverages from ``level`` (inf where a half cannot reach it, NaN with fewer than
+    two chunks). Judged by horizon, the miss sees a band of the wrong shape (too narrow early
+    and too wide late, or the reverse) that a coverage pooled over the chunks would not."""
+    if len(chunks) < 2:
+        return np.nan
+    halves = (chunks[0::2], chunks[1::2])
+    miss = []
+    for fitted, checked in (halves, halves[::-1]):
+        found = calibrate(fitted, level)
+        if not found.reachable:
+            return np.inf
+        miss.append(np.abs(coverage_by_horizon(checked, level, found.scale) - level))
+    return float(np.mean(miss))
+
+
+def coverage_of(chunks: list, level: float, scale: float) -> float:
+    """The share of the measured samples of ``chunks`` inside the band at ``scale``."""
+    inside = 0
+    for x, nominal, c, d in chunks:
+        lower, upper = quantile_band(nominal + c + scale * d, level)
+        inside += int(np.sum((lower <= x) & (x <= upper)))
+    return inside / sum(len(x) for x, *_ in chunks)
+
+
+def coverage_by_horizon(chunks: list, level: float, scale: float) -> np.ndarray:
+    """The band's coverage at ``scale`` in each of :data:`HORIZONS` equal spans of each chunk's
+    samples (the first span: the samples nearest the chunk's start)."""
+    inside, counted = np.zeros(HORIZONS), np.zeros(HORIZONS)
+    for x, nominal, c, d in chunks:
+        lower, upper = quantile_band(nominal + c + scale * d, level)
+        span = np.minimum(np.arange(len(x)) * HORIZONS // len(x), HORIZONS - 1)
+        inside += np.bincount(span, (lower <= x) & (x <= upper), HORIZONS)
+        counted += np.bincount(span, minlength=HORIZONS)
+    return inside / np.maximum(counted, 1)
+
+
+def choose(forced: list, drifted: list, level: float) -> Calibration:
+    """The disturbance of the two shapes whose band, calibrated on half of the training
+    chunks, covers the other half nearest the level (:func:`cross_miss`); the force on
+    a tie or where there are too few chunks to tell, unless no scale of it reaches the level."""
+    force = replace(calibrate(forced, level), miss=cross_miss(forced, level))
+    drift = replace(calibrate(drifted, level), kind=DRIFT, miss=cross_miss(drifted, level))
+    if not force.reachable:
+        return drift if drift.reachable else force
+    if np.isfinite(drift.miss) and drift.miss < force.miss:
+        return drift
+    return force

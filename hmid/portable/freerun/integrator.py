@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from hmid.portable.freerun.equation import Equation, equation
+from hmid.portable.freerun.equation import Equation, equation, free_run_v0
 from hmid.portable.freerun.program import Program, Shape, vector_field
 
 #: Blocks are padded to a multiple of this many samples.
@@ -246,8 +246,10 @@ class Simulator:
 
 
 def simulator(model, v0: float | None = None) -> Simulator:
-    """The compiled free run of ``model``; :class:`NotSimulable` says why there is none."""
-    eq = equation(model, v0)
+    """The compiled free run of ``model`` (friction regularised at ``v0``, by default the least
+    a sample's step integrates stably: :func:`~.equation.free_run_v0`); :class:`NotSimulable`
+    says why there is none."""
+    eq = equation(model, v0 if v0 is not None else free_run_v0(model))
     shape = Shape.of(eq)
     program = Program.of(eq, model.rig.position, shape).arrays()
     return Simulator(eq, model.rig.position, shape, program, *compiled(shape))

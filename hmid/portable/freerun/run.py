@@ -9,13 +9,17 @@ measured inputs alone.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from hmid.portable.freerun.band import (
+    DRIFT,
     Calibration,
-    calibrate,
+    choose,
     coefficient_draws,
     disturbances,
+    drifts,
     quantile_band,
 )
 from hmid.portable.freerun.equation import NotSimulable
@@ -115,21 +119,26 @@ def simulate_signals(
                                 stride, size)  # fmt: skip
         scale = calibrated.scale
     rng = np.random.default_rng([seed, 1])
+    drift = calibrated is not None and calibrated.kind == DRIFT
     out = []
     for rows in spans:
         start = _start(sim, signals, rows, memory_rows)
         run = sim.integrate(*start, size=size)
         bounds = None
         if sampled:
-            noise = scale * disturbances(model, len(rows), len(sampled), rng)
+            noise = np.zeros((len(sampled), len(rows)))
+            if not drift:
+                noise = scale * disturbances(model, len(rows), len(sampled), rng)
             runs = sim.positions(
                 *start,
                 [sim.coefficients(), *sampled],
                 np.concatenate([np.zeros((1, len(rows))), noise]),
                 stride=stride,
                 size=size,
-            )
-            bounds = quantile_band(runs[1:], level)
+            )[1:]
+            if drift:
+                runs = runs + scale * drifts(start[0], len(sampled), rng)
+            bounds = quantile_band(runs, level)
         out.append(score_block(model.rig, signals, rows, run, bounds))
     return FreeRun(model.name, tuple(out), level=level if sampled else None,
                    band=_describe(band, calibrated) if sampled else "",
@@ -181,13 +190,15 @@ def _start(sim: Simulator, signals, rows, memory_rows) -> Start:
 
 def _calibrate(model, sim, signals, spans, sampled, memory_rows, level, seed, stride,
                size) -> Calibration:  # fmt: skip
-    """The disturbance's scale from the training ``spans`` (:func:`~.band.calibrate`): per span,
-    the nominal coefficients with every coefficient draw without disturbance, then with the
-    nominal coefficients under every disturbance draw of scale 1 (two vectorised calls of the
-    band's size)."""
+    """The disturbance's shape and scale from the training ``spans`` (:func:`~.band.choose`):
+    per span, the nominal coefficients with every coefficient draw without disturbance, then
+    with the nominal coefficients under every disturbance force of scale 1 (two vectorised
+    calls of the band's size), and as many drifts of the position (no run); and the share of
+    the coefficient draws that diverge there."""
     rng = np.random.default_rng([seed, 2])
     nominal = sim.coefficients()
-    found = []
+    forced, drifted = [], []
+    diverged = np.zeros(len(sampled), dtype=bool)
     for rows in spans:
         start = _start(sim, signals, rows, memory_rows)
         zeros = np.zeros((1 + len(sampled), len(rows)))
@@ -196,22 +207,25 @@ def _calibrate(model, sim, signals, spans, sampled, memory_rows, level, seed, st
         noise[1:] = disturbances(model, len(rows), len(sampled), rng)
         disturbed = sim.positions(*start, [nominal] * (1 + len(sampled)), noise, stride=stride,
                                   size=size)  # fmt: skip
-        x0 = coefficients[0]
-        found.append((signals[sim.position][rows], x0, coefficients[1:] - x0, disturbed[1:] - x0))
-    return calibrate(found, level)
+        x, x0 = signals[sim.position][rows], coefficients[0]
+        forced.append((x, x0, coefficients[1:] - x0, disturbed[1:] - x0))
+        drifted.append((x, x0, coefficients[1:] - x0, drifts(start[0], len(sampled), rng)))
+        diverged |= ~np.all(np.isfinite(coefficients[1:]), axis=1)
+    return replace(choose(forced, drifted, level), diverging=float(np.mean(diverged)))
 
 
 def _describe(band: str, calibrated: Calibration | None) -> str:
     if calibrated is None:
         return band + " + the training residual as a disturbance force (not calibrated)"
     if not calibrated.reachable:
-        covered = f"{100 * calibrated.coverage:.0f} %"
-        return (band + " + a disturbance force: no scale of it reaches the level on the "
-                f"training blocks ({covered} there at the largest scale tried: the draws "
-                "diverge, or the disturbance moves too little): not calibrated")  # fmt: skip
+        return band + ": " + calibrated.why_not()
     if calibrated.scale == 0:
         return (band + f": alone it covers {100 * calibrated.coverage:.0f} % of the training "
                 "blocks, no disturbance added")  # fmt: skip
+    if calibrated.kind == DRIFT:
+        return (band + f" + a drift of the position ({calibrated.scale:.3g} per square root of "
+                "a second), its scale calibrated on the training blocks, where it covered "
+                "better than a disturbance force")  # fmt: skip
     return (band + f" + a disturbance force {calibrated.scale:.3g}x the training residual, "
             "its scale calibrated on the training blocks")  # fmt: skip
 
