@@ -185,9 +185,10 @@ def value_findings(known: tuple[KnownValue, ...], table: pd.DataFrame, position:
                 f"refitted, the held-out error goes {before.rmse:.4g} → "
                 f"{refitted.rmse:.4g})")  # fmt: skip
         if k.positive and high < 0:  # a sign, not a number
-            said = (f"{k.name} is negative on the dynamic data, but physics makes it positive "
-                    f"({said}): a channel counted the other way ({channels}), or the term's "
-                    "declared sign; its value is no estimate")  # fmt: skip
+            said = (f"{k.name} is negative on the dynamic data (its interval {low:.4g} … "
+                    f"{high:.4g} {k.unit}; declared {k.value:.4g} {k.unit} in {k.where}), but "
+                    f"physics makes it positive: a channel counted the other way ({channels}), "
+                    "or the term's declared sign; its value is not estimated")  # fmt: skip
         else:
             said += (f": the declared value is wrong, or the scale of {channels} (its unit or "
                      f"calibration), or the balance lacks a force that follows "

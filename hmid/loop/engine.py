@@ -168,7 +168,22 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
                     fitted_level=setting.fitted_level if refit is not None else None,
                     findings=findings)  # fmt: skip
     clock.lap("diagnostics and verdict")
+    if notes:  # each added effect's table as the final refit has it
+        effects = tuple(_as_final(e, result.final_parameters) for e in result.effects)
+        result = replace(result, effects=effects)
     return replace(result, costs=clock.laps, notes=(*result.notes, *notes))
+
+
+def _as_final(effect, final):
+    """``effect`` with its parameters' values and intervals from the final refit (``final``:
+    the final model's table), where that has them."""
+    ours = final[final["part"] == effect.name].set_index("parameter")
+    table = effect.parameters.copy()
+    for i, name in enumerate(table["parameter"]):
+        if name in ours.index:
+            for column in ("value", "std. error", "lower", "upper"):
+                table.loc[i, column] = ours.loc[name, column]
+    return replace(effect, parameters=table)
 
 
 def _declared(rig, base: LoopBase, start: StructureFit, signals, held, setting, spec):

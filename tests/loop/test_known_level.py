@@ -104,7 +104,8 @@ def test_a_known_mass_of_the_wrong_sign_is_a_sign_finding(synthetic, tmp_path):
     signals, _ = synthetic()
     result = _loop_with_known_mass(_with_mass(signals, -M_TRUE), 4.0, tmp_path)
     (finding,) = result.findings
-    assert finding.message.startswith("M is negative on the dynamic data")
+    assert finding.message.startswith("M is negative on the dynamic data (its interval -5")
+    assert "its value is not estimated" in finding.message and "M = " not in finding.message
     assert "a channel counted the other way (x)" in finding.message
 
 

@@ -57,3 +57,6 @@ def test_undeclared_coulomb_friction_is_named_and_the_damping_recovered(msd_loop
     assert c["part"] == "balance" and c["lower"] < TRUTH["c"] < c["upper"]
     assert any(line.startswith("coulomb: dFc = ") for line in result.final_lines())
     assert any("without the rows of stopped motion" in note for note in result.notes)
+    # the effect's own table is the final refit's
+    own = result.effects[0].parameters.set_index("parameter").loc["dFc"]
+    assert own["value"] == level["value"] and own["upper"] == level["upper"]
