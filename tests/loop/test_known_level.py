@@ -126,3 +126,27 @@ def test_the_motion_mass_is_tested_against_the_force_sensor(synthetic):
     assert found is not None and found.parameter == MOTION_MASS and not found.refitted
     assert "declared 4.5 kg in rig.motion" in found.message
     assert motion_finding(_motion_rig(M_TRUE), signals, 0.95) is None
+
+
+def test_an_inertial_force_made_of_the_motion_alone_is_not_tested(synthetic):
+    """On a rig without a force sensor ((M + m1) a + m1 g explained), a wrong mass scales the
+    whole balance, which the model takes up: no correction is offered; beside a sensor (a force
+    less a known inertia) the known part is tested, entering with the explained side's sign."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    import yaml
+
+    from hmid.loop.declared import known_values
+
+    signals, _ = synthetic()
+    signals = _with_mass(signals)
+    signals = replace(signals, units={**signals.units, "F": "N"})  # the sensor's, as logged
+    config = Path(__file__).resolve().parents[2] / "configs" / "knee.yaml"
+    knee = yaml.safe_load(config.read_text(encoding="utf-8"))["rig"]
+    assert known_values(RigSection.model_validate(knee), signals) == ()
+    spec = PISTON.model_dump(by_alias=True, exclude_none=True)
+    parts = [{"channel": "F"}, {"channel": "a", "value": -0.2, "unit": "kg", "name": "m_rod"}]
+    rig = RigSection.model_validate(spec | {"explained": {"name": "F", "parts": parts}})
+    (known,) = known_values(rig, signals)
+    assert (known.name, known.value, known.sign, known.correction) == ("m_rod", -0.2, -1, "dm_rod")
