@@ -165,9 +165,10 @@ def testable(known: tuple[KnownValue, ...], base, signals: Signals) -> tuple[Kno
 
 
 def value_findings(known: tuple[KnownValue, ...], table: pd.DataFrame, position: str | None,
-                   scores) -> tuple[Finding, ...]:  # fmt: skip
+                   scores, unit: str) -> tuple[Finding, ...]:  # fmt: skip
     """Findings for the corrections in ``table`` (the base's parameters, refitted with them)
-    whose interval excludes zero; ``scores``: the held-out scores before and after the refit."""
+    whose interval excludes zero; ``scores``: the held-out scores before and after the refit,
+    in ``unit`` (the explained quantity's)."""
     rows = table.set_index("parameter")
     before, refitted = scores
     out = []
@@ -183,7 +184,7 @@ def value_findings(known: tuple[KnownValue, ...], table: pd.DataFrame, position:
                 f"declared {k.value:.4g} {k.unit} in {k.where} ({k.correction} = "
                 f"{row['value']:.3g} [{row['lower']:.3g}, {row['upper']:.3g}] {k.unit}; "
                 f"refitted, the held-out error goes {before.rmse:.4g} → "
-                f"{refitted.rmse:.4g})")  # fmt: skip
+                f"{refitted.rmse:.4g} {unit})")  # fmt: skip
         if k.positive and high < 0:  # a sign, not a number
             said = (f"{k.name} is negative on the dynamic data (its interval {low:.4g} … "
                     f"{high:.4g} {k.unit}; declared {k.value:.4g} {k.unit} in {k.where}), but "

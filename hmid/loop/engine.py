@@ -199,7 +199,8 @@ def _declared(rig, base: LoopBase, start: StructureFit, signals, held, setting, 
     trial = profile(start.structure.plus(Corrections(known)), signals, step=PROFILE_STEP)
     before = score(signals.target[held], base.prediction[held], "one-step")
     values = value_findings(known, parameters(trial, signals, spec.confidence),
-                            setting.position, (before, trial.scores(held)))  # fmt: skip
+                            setting.position, (before, trial.scores(held)),
+                            signals.unit("target"))  # fmt: skip
     return (trial if values else start), (*values, *found)
 
 
