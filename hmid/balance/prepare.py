@@ -88,6 +88,19 @@ def _usable(t, v_raw, smoother, ends: int, v_deadband: float, exclude_stuck: boo
     return usable
 
 
+def without_stopped(signals: Signals, v_deadband: float) -> Signals:
+    """``signals`` with the low-speed rule applied to rows that kept stopped motion (as
+    ``fit.exclude_stuck`` would have in :func:`prepare`): for a refit once friction is found
+    where the rig declared none."""
+    keep = np.ones(len(signals), dtype=bool)
+    t, v_raw = signals["t"], signals[raw("v")]
+    for start, stop in signals.bounds():
+        rows = slice(start, stop)
+        keep[rows] = _usable(t[rows], v_raw[rows], signals.smoother, 0, v_deadband, True)
+    return signals.with_columns(usable=signals.usable & keep, train=signals.train & keep,
+                                validation=signals.validation & keep)  # fmt: skip
+
+
 def _parts(
     rig: RigSection,
     pieces: Mapping[str, list[Log]],

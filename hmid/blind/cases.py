@@ -12,8 +12,8 @@ from hmid.blind.config import BlindSuite
 from hmid.loop.result import Verdict
 
 CLEAN = "clean"
-#: what a declared case expects: the loop's finding that the declared friction level is wrong
-FINDING = "finding: friction level"
+#: how a declared case's outcome names a finding (of the tested parameter that follows)
+FINDING = "finding: "
 
 
 @dataclass(frozen=True)
@@ -70,7 +70,7 @@ def plan_cases(suite: BlindSuite) -> list[Case]:
                         i,
                         _seed(suite.seed, declared.name, strength, i),
                         {},
-                        (FINDING,),
+                        (declared.finding,),
                         declare=dict(values),
                     )
                 )
@@ -159,9 +159,9 @@ def outcome(case: Case, result) -> dict[str, Any]:
                 "covered": bool(estimate["lower"] <= truth <= estimate["upper"]),
             }
     if case.declare:  # named as a finding, never credited to an effect
-        found = any(n.startswith("the dynamic friction level") for n in result.notes)
-        row["first named"] = FINDING if found else row["first named"]
-        row["correct"] = found and not added
+        found = [f.parameter for f in result.findings if f.parameter in expect]
+        row["first named"] = FINDING + found[0] if found else row["first named"]
+        row["correct"] = bool(found) and not added
     elif case.effect == CLEAN:
         row["correct"] = not added
     elif case.expect is None:

@@ -57,10 +57,13 @@ class DeclaredCases(_Frozen):
     """A declared term taken as known, declared wrong: the data are clean (simulated with the
     template's rig), the experiment ``declare``s other values (dotted keys into the experiment
     template: ``rig.free_fall.mass``), at named strengths. The loop must name the inconsistency
-    (a finding, never an effect)."""
+    (a finding, never an effect): ``finding`` is the tested parameter whose finding names it or
+    an honest set containing it (dFc, the friction level, for a wrong free-fall mass;
+    ``motion.mass``; a correction ``d<name>`` of a known value)."""
 
     name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_]+$")]
     strengths: Annotated[dict[str, dict[str, float]], Field(min_length=1)]
+    finding: str = "dFc"
 
 
 class Targets(_Frozen):

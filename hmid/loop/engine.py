@@ -16,17 +16,20 @@ from dataclasses import dataclass, replace
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from hmid.balance import Signals, Structure, StructureFit, profile
+from hmid.balance import Signals, Structure, StructureFit, parameters, profile
+from hmid.balance.prepare import without_stopped
 from hmid.families.base import FitData, Fitted
-from hmid.loop.candidates import ELASTIC, STIFFNESS, Setting, level, make_candidates
+from hmid.loop.candidates import ELASTIC, STIFFNESS, Friction, Setting, level, make_candidates
 from hmid.loop.config import LoopSpec
 from hmid.loop.confounds import rivals, separating
 from hmid.loop.decision import Decision
+from hmid.loop.declared import Corrections, known_values, motion_finding, testable, value_findings
 from hmid.loop.diagnostics import pattern_scan
 from hmid.loop.parallel import screen_round
 from hmid.loop.result import Alternative, LoopResult, added_effect, finish, own_parameters
 from hmid.loop.screen import PROFILE_STEP, Screen
 from hmid.loop.selection import Folds, bootstrap, change, out_of_fold
+from hmid.metrics import score
 from hmid.stats import NestedTest, holm, residual_tau_int
 
 
@@ -79,17 +82,23 @@ def run_loop(
     seed: int = 0,
     *,
     across_logs: bool = False,
+    rig=None,
+    low_speed: float | None = None,
 ) -> LoopResult:
     """Diagnose, test, select and add effects; then say what remains. ``across_logs``: the
     held-out rows are whole logs, and selection also leaves every training log out whole
-    (the stricter of the two cross-validations decides)."""
+    (the stricter of the two cross-validations decides). ``rig``: its declared known values
+    and motion are tested as hypotheses (:mod:`hmid.loop.declared`). ``low_speed``: the
+    deadband of the low-speed rule where the rows keep stopped motion; once the loop adds
+    friction to a rig that declared none, its final refit leaves those rows out (static
+    friction is indeterminate there, and a Coulomb level fitted on them reads low)."""
     # thousands of small least-squares problems: BLAS threads only contend for the cores
     with threadpool_limits(limits=1, user_api="blas"):
-        return _run_loop(signals, base, spec, setting, seed, across_logs)
+        return _run_loop(signals, base, spec, setting, seed, across_logs, rig, low_speed)
 
 
 def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
-              across_logs=False) -> LoopResult:  # fmt: skip
+              across_logs=False, rig=None, low_speed=None) -> LoopResult:  # fmt: skip
     clock = _Clock()
     setting = replace(setting, dt=signals.dt)  # timing grids follow the sample rate
     candidates = make_candidates(spec.candidate_names(setting), setting)
@@ -102,6 +111,10 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
     structure = base.structure if refit is None else base.structure.plus(refit)
     # every 4th relaxation time, then a walk (as in each screen): the base's profile is smooth
     current = start = profile(structure, signals, step=PROFILE_STEP)
+    # the rig's known values are hypotheses: a correction found is kept in the base, so that
+    # no candidate can be credited with it
+    start, findings = _declared(rig, base, start, signals, held, setting, spec)
+    current = start
     folds = Folds.of(signals, spec.folds, spec.block_s)
     # the same blocks dealt by log: what a split that holds out whole logs asks of an addition
     by_log = Folds.by_log(signals, spec.block_s) if across_logs else None
@@ -111,6 +124,7 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
     remaining = [c for c in candidates if has_elastic or not c.elastic]
     decisions: list[Decision] = []
     effects, steps = [], []
+    friction_added = False
     part = "setting up"  # what the clock's next lap timed
     for round_no in range(1, spec.max_effects + 1):
         if round_no > 1:  # the model changed: its elastic force with it
@@ -131,6 +145,7 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
         effects.append(added_effect(added, trial, current, signals, chosen.decisions[chosen.best],
                                    folds, spec.confidence, chosen.alternatives))  # fmt: skip
         remaining.remove(added.candidate)
+        friction_added = friction_added or isinstance(added.candidate, Friction)
         current = trial
         part = f"round {round_no}: selection, adding its effect"
         steps.append((effects[-1].name, current.scores(held)))  # reported, never decided on
@@ -138,14 +153,55 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
         strongest = pattern_scan(current.residual, signals.train, signals)["eta2"].max()
         if strongest < spec.structure_threshold:
             break
+    notes: tuple[str, ...] = ()
+    if low_speed is not None and not setting.declared and friction_added:
+        current = profile(current.structure, without_stopped(signals, low_speed))
+        notes = ("friction was added to a rig that declares none: the final model is refitted "
+                 f"without the rows of stopped motion (|v| < {low_speed:g} m/s, as "
+                 "fit.exclude_stuck: true leaves out), where static friction is "
+                 "indeterminate",)  # fmt: skip
     clock.lap(part)
     result = finish(spec, signals, base, start, current, effects, decisions, held, steps,
                     held_out="logs" if across_logs else "rows",
                     known_level=setting.known_level if refit is not None else None,
                     known_se=setting.known_se,
-                    fitted_level=setting.fitted_level if refit is not None else None)  # fmt: skip
+                    fitted_level=setting.fitted_level if refit is not None else None,
+                    findings=findings)  # fmt: skip
     clock.lap("diagnostics and verdict")
-    return replace(result, costs=clock.laps)
+    if notes:  # each added effect's table as the final refit has it
+        effects = tuple(_as_final(e, result.final_parameters) for e in result.effects)
+        result = replace(result, effects=effects)
+    return replace(result, costs=clock.laps, notes=(*result.notes, *notes))
+
+
+def _as_final(effect, final):
+    """``effect`` with its parameters' values and intervals from the final refit (``final``:
+    the final model's table), where that has them."""
+    ours = final[final["part"] == effect.name].set_index("parameter")
+    table = effect.parameters.copy()
+    for i, name in enumerate(table["parameter"]):
+        if name in ours.index:
+            for column in ("value", "std. error", "lower", "upper"):
+                table.loc[i, column] = ours.loc[name, column]
+    return replace(effect, parameters=table)
+
+
+def _declared(rig, base: LoopBase, start: StructureFit, signals, held, setting, spec):
+    """The base with the corrections of the rig's known values where any is found (else
+    ``start`` itself), and the findings: those corrections and the motion equation's mass."""
+    if rig is None:
+        return start, ()
+    motion = motion_finding(rig, signals, spec.confidence)
+    found = (motion,) if motion is not None else ()
+    known = testable(known_values(rig, signals), start, signals)
+    if not known:
+        return start, found
+    trial = profile(start.structure.plus(Corrections(known)), signals, step=PROFILE_STEP)
+    before = score(signals.target[held], base.prediction[held], "one-step")
+    values = value_findings(known, parameters(trial, signals, spec.confidence),
+                            setting.position, (before, trial.scores(held)),
+                            signals.unit("target"))  # fmt: skip
+    return (trial if values else start), (*values, *found)
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ import pandas as pd
 
 from hmid.balance import Signals, StructureFit, parameters
 from hmid.loop.decision import Decision, decision_table
+from hmid.loop.declared import Finding
 from hmid.loop.diagnostics import Diagnostics, diagnose
 from hmid.loop.hint import Hint, sparse_hint
 from hmid.metrics import Scores, score
@@ -88,6 +89,8 @@ class LoopResult:
     # every parameter after the loop (the base's and each added effect's, part says whose),
     # from the last joint fit
     final_parameters: pd.DataFrame = field(default_factory=pd.DataFrame)
+    # declared terms found inconsistent with the dynamic data (their lines are among the notes)
+    findings: tuple[Finding, ...] = ()
 
     def final_lines(self) -> tuple[str, ...]:
         """One line per part of the final model (the base, each added effect): its parameters
@@ -221,25 +224,28 @@ def _residual_before(signals: Signals, prediction: np.ndarray) -> np.ndarray:
 
 def finish(spec, signals, base, start, current, effects, decisions, held, steps=(),
            held_out: str = "rows", known_level: str | None = None,
-           fitted_level: str | None = None, known_se: float = 0.0) -> LoopResult:  # fmt: skip
+           fitted_level: str | None = None, known_se: float = 0.0,
+           findings: tuple[Finding, ...] = ()) -> LoopResult:  # fmt: skip
     """Diagnostics before (the base model's own residual) and after, and the verdict; the
     held-out error before and after on ``held``, the comparison's held-out rows (a lead's reach
     at segment ends is left out of the tests, not of the reported error; ``held_out`` says what
     they are: "rows" or whole "logs"; ``known_level``: whence the declared Coulomb level the
     base took as known, which its refit tests, and ``known_se`` its standard error;
     ``fitted_level``: the declared level's name where the base fitted it, which its refit, the
-    same column, is called in the tables)."""
+    same column, is called in the tables; ``findings``: the other declared terms found wrong,
+    the corrections of those in the balance already in ``start``)."""
     residual_before = _residual_before(signals, base.prediction)
     before_scores = score(signals.target[held], base.prediction[held], "one-step")
     table = parameters(start, signals, spec.confidence)
-    finding = None
     if known_level is not None:
-        finding = level_finding(table, known_level, signals.unit("target"),
-                                (before_scores, start.scores(held)), known_se,
-                                spec.confidence)  # fmt: skip
+        level = level_finding(table, known_level, signals.unit("target"),
+                              (before_scores, start.scores(held)), known_se,
+                              spec.confidence)  # fmt: skip
+        findings = (*((Finding("dFc", level),) if level else ()), *findings)
+    refitted = [f.parameter for f in findings if f.refitted]
     before = _diagnose(spec, signals, residual_before)
     after, current_residual = before, residual_before  # nothing added: after is before
-    corrected = bool(effects) or finding is not None  # a known level found wrong: corrected
+    corrected = bool(effects) or bool(refitted)  # a known value found wrong: corrected
     if corrected:
         current_residual = current.residual
         after = _diagnose(spec, signals, current_residual)
@@ -253,7 +259,7 @@ def finish(spec, signals, base, start, current, effects, decisions, held, steps=
     return LoopResult(
         base_name=base.name,
         after_name=base.name
-        + (" + dFc (its known friction level refitted)" if finding and not effects else "")
+        + _refitted(refitted, effects)
         + "".join(f" + {e.name}" for e in effects),
         unit=signals.unit("target"),
         base_parameters=table.drop(columns=["positive"]),
@@ -271,11 +277,21 @@ def finish(spec, signals, base, start, current, effects, decisions, held, steps=
         residual_before=residual_before,
         residual_after=current_residual,
         steps=tuple(steps),
+        findings=tuple(findings),
         notes=(
-            *((finding,) if finding else ()),
+            *(f.message for f in findings),
             *rises(before_scores, steps, signals.unit("target"), held_out),
         ),
     )
+
+
+def _refitted(corrections: list[str], effects) -> str:
+    """The after's name where only corrections of declared values changed the base."""
+    if not corrections or effects:
+        return ""
+    if corrections == ["dFc"]:
+        return " + dFc (its known friction level refitted)"
+    return f" + {', '.join(corrections)} (declared values refitted)"
 
 
 def _diagnose(spec, signals, residual: np.ndarray) -> Diagnostics:

@@ -495,9 +495,11 @@ def loop(config: ExperimentConfig, split: Split, fit: Fits, friction=None):
     setting = Setting.of(config.rig)
     if friction is not None and setting.known_level is not None:
         setting = replace(setting, known_se=float(friction.se.get("Fc", 0.0)))
+    low_speed = None if config.fit.exclude_stuck else config.fit.v_deadband  # the loop's to apply
     try:
         result = run_loop(split.signals, base, config.loop, setting, config.seed,
-                          across_logs=config.split.kind == "logs")  # fmt: skip
+                          across_logs=config.split.kind == "logs", rig=config.rig,
+                          low_speed=low_speed)  # fmt: skip
     except (*FIT_ERRORS, ValueError, IndexError) as err:
         warnings.warn(f"loop: it failed on the base {model.name}: {' '.join(str(err).split())}; "
                       "the report has no loop section", HmidWarning, stacklevel=2)  # fmt: skip

@@ -31,10 +31,9 @@ def msd_loop(tmp_path_factory):
     (root / "columns.yaml").write_text((EXAMPLE / "columns.yaml").read_text())
     config = yaml.safe_load((EXAMPLE / "config.yaml").read_text())
     config["loop"] = {"base": "balance"}
-    # the rig declares no friction, so the low-speed rule is off by default; a user who looks
-    # for friction asks for it (with stopped rows the level reads 0.99 N [0.95, 0.989]: static
-    # friction is indeterminate there)
-    config["fit"] = {"exclude_stuck": True}
+    # the rig declares no friction, so the low-speed rule is off by default: the loop turns it
+    # on for its final refit once it adds friction (with stopped rows the level reads 0.989 N
+    # [0.95, 0.989]: static friction is indeterminate there)
     experiment = experiment_from(config, "msd.yaml", root)
     return experiment, analyse(experiment, ("loop",), root / "cache")["loop"]
 
@@ -57,3 +56,7 @@ def test_undeclared_coulomb_friction_is_named_and_the_damping_recovered(msd_loop
     c = final.loc["c"]
     assert c["part"] == "balance" and c["lower"] < TRUTH["c"] < c["upper"]
     assert any(line.startswith("coulomb: dFc = ") for line in result.final_lines())
+    assert any("without the rows of stopped motion" in note for note in result.notes)
+    # the effect's own table is the final refit's
+    own = result.effects[0].parameters.set_index("parameter").loc["dFc"]
+    assert own["value"] == level["value"] and own["upper"] == level["upper"]
