@@ -28,12 +28,13 @@ from hmid.portable.freerun.program import Program, Shape, vector_field
 
 #: Blocks are padded to a multiple of this many samples.
 PAD = 4096
-#: The controller's tolerances, and its most steps per sample (then the run stops, not ok).
-RTOL, ATOL, STEPS_PER_SAMPLE = 1e-6, 1e-9, 4
-#: The longest step, in samples: the states between steps are interpolated (cubic Hermite),
-#: which is as accurate as the steps over a few samples (a sampled input has a kink at every
-#: sample, so a log's steps are about one sample anyway)
-MAX_STEP = 4.0
+#: The controller's tolerances, and its most steps per sample (then the run stops, not ok):
+#: each step's state is kept, so this sizes the program's arrays (a log takes about one step
+#: per two to six samples).
+RTOL, ATOL, STEPS_PER_SAMPLE = 1e-6, 1e-9, 2
+#: The longest step, in samples: the states between steps are interpolated (cubic Hermite,
+#: from each step's state and slope), as accurate as the steps over eight samples
+MAX_STEP = 8.0
 
 
 def padded_size(n: int) -> int:
@@ -65,15 +66,20 @@ def compiled(shape: Shape):
     def run(program, dts, count, y0, table, noise, coef, taus, lag_times):
         args = (prepare(program, dts, count, coef, taus, lag_times), table, noise)
         end = (count - 1).astype(dts.dtype)
+        # each accepted step's state and slope (the slope for the Hermite interpolation below,
+        # evaluated in the loop for accepted steps only, not afterwards for every slot)
+        saved = diffrax.SaveAt(
+            t0=True, steps=True, fn=lambda s, y, a: jnp.concatenate([y, rhs(s, y, a)])
+        )
         solution = diffrax.diffeqsolve(
-            term, solver, 0.0, end, None, y0, args=args, saveat=diffrax.SaveAt(t0=True,
-            steps=True),
+            term, solver, 0.0, end, None, y0, args=args, saveat=saved,
             stepsize_controller=diffrax.PIDController(rtol=RTOL, atol=ATOL, dtmax=MAX_STEP),
             adjoint=diffrax.ForwardMode(), max_steps=STEPS_PER_SAMPLE * dts.shape[0],
             throw=False,
         )  # fmt: skip
         grid = jnp.minimum(jnp.arange(dts.shape[0]), count - 1).astype(dts.dtype)
-        ys = _hermite(solution.ts, solution.ys, lambda s, y: rhs(s, y, args), grid)
+        n = y0.shape[0]
+        ys = _hermite(solution.ts, solution.ys[:, :n], solution.ys[:, n:], grid)
         ok = solution.result == diffrax.RESULTS.successful
         force = jax.vmap(lambda s, y: explained(s, y, args))(grid, ys)
         return ys, force, ok
@@ -98,17 +104,16 @@ def compiled(shape: Shape):
     return jax.jit(run), jax.jit(draws)
 
 
-def _hermite(ts, ys, f, grid):
-    """The states at ``grid`` from the accepted steps': cubic Hermite between steps (value
-    and slope at both ends; 4th-order local error, as Tsit5's own dense output), one sorted
-    search for every sample (``SaveAt(ts=...)`` checks its times with a host callback, and
-    evaluating diffrax's dense output sample by sample costs more than the solve). Steps
-    never taken are inf: samples past the last step are NaN."""
-    import jax
+def _hermite(ts, ys, slopes, grid):
+    """The states at ``grid`` from the accepted steps' values and slopes: cubic Hermite between
+    steps (4th-order local error, as Tsit5's own dense output), one sorted search for every
+    sample (``SaveAt(ts=...)`` checks its times with a host callback, and evaluating diffrax's
+    dense output sample by sample costs more than the solve). Steps never taken are inf:
+    samples past the last step are NaN."""
     import jax.numpy as jnp
 
     ts = jnp.where(jnp.isfinite(ts), ts, jnp.inf)
-    slopes = jax.vmap(f)(jnp.where(jnp.isfinite(ts), ts, 0.0), jnp.nan_to_num(ys))
+    slopes = jnp.nan_to_num(slopes)
     k = jnp.clip(jnp.searchsorted(ts, grid, side="right", method="sort") - 1, 0,
                  ts.shape[0] - 2)  # fmt: skip
     t0, t1 = ts[k], ts[k + 1]

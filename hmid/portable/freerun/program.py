@@ -8,7 +8,8 @@ compiled program: the demo's six models share one.
 
 Time inside the program is the sample index s (sample k at s = k, the log's own step dt_k
 between samples k and k + 1, so a logger's jitter is honoured): the inputs are read at s by one
-index and one weight, never by a search, and the vector field is dy/ds = f(t, y) dt_k.
+index and a cubic Hermite between its neighbours, never by a search, and the vector field is
+dy/ds = f(t, y) dt_k.
 """
 
 from __future__ import annotations
@@ -156,6 +157,28 @@ def _at(s, table, count):
     return table[..., k] * (1 - w) + table[..., k + 1] * w, k
 
 
+def _smooth_at(s, table, count):
+    """The table's columns at sample time s, a cubic Hermite (Catmull-Rom) between samples; and
+    the sample. The inputs are read so: read linearly, they have a kink at every sample, where
+    an error-controlled step is rejected and shrinks to a sample (42 % of the steps were
+    rejected on the bench's SLS run); read smoothly, the same tolerance takes half the steps
+    (22,784 -> 10,787 on a 40 s log at 500 Hz). Both agree at the samples."""
+    import jax.numpy as jnp
+
+    k = jnp.clip(jnp.floor(s).astype(jnp.int32), 0, count - 2)
+    w = s - k
+    y0, y1 = table[..., k], table[..., k + 1]
+    m0 = (y1 - table[..., jnp.maximum(k - 1, 0)]) / jnp.where(k > 0, 2.0, 1.0)
+    m1 = (table[..., jnp.minimum(k + 2, count - 1)] - y0) / jnp.where(k + 2 <= count - 1, 2.0, 1.0)
+    h00, h10, h01, h11 = (
+        2 * w**3 - 3 * w**2 + 1,
+        w**3 - 2 * w**2 + w,
+        -2 * w**3 + 3 * w**2,
+        w**3 - w**2,
+    )
+    return h00 * y0 + h10 * m0 + h01 * y1 + h11 * m1, k
+
+
 def _total(shape: Shape, s, y, now, p, table, weights):
     """The weighted sum of the parts that do not hold a, and the coefficient of a."""
     import jax
@@ -174,7 +197,7 @@ def _total(shape: Shape, s, y, now, p, table, weights):
         + jnp.dot(memory_w, y[2 : 2 + m]) + jnp.dot(lag_w, y[2 + m :])
     )  # fmt: skip
     if shape.delays:
-        late = jax.vmap(lambda d, i: _at(s - d, table, p["count"])[0][i])(
+        late = jax.vmap(lambda d, i: _smooth_at(s - d, table, p["count"])[0][i])(
             p["delay"], p["delay_input"])  # fmt: skip
         value = value + jnp.dot(delay_w, late)
     return value, accel
@@ -198,7 +221,7 @@ def vector_field(shape: Shape):
         """dy/dt, the acceleration solved from the balance (the disturbance a force on the
         model side); and the step dt/ds there."""
         p, table, noise = args
-        now, k = _at(s, table, p["count"])
+        now, k = _smooth_at(s, table, p["count"])
         force = _at(s, noise, p["count"])[0]
         value, accel = _total(shape, s, y, now, p, table, p["model"])
         a = -(value + force) / accel
