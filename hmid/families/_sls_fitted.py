@@ -16,13 +16,13 @@ from hmid.intervals import IntervalNote
 PREDICT_BATCH = 25  # posterior draws predicted at once for the band
 
 
-#: The longest residual correlation time (samples, corrected for the fit's projection) at which
-#: the widened SLS intervals were measured: AR(1) phi = 0.8 and the smoothed white noise of
-#: benchmarks/bench_sls_calibration.py (the smoothed case's 90 % quantile).
-SLS_CALIBRATED_TAU = 25.0
+#: The longest residual correlation time (samples) at which the widened SLS intervals were
+#: measured: AR(1) phi = 0.8 and the smoothed white noise (tau_int 20) of
+#: benchmarks/bench_sls_calibration.py.
+SLS_CALIBRATED_TAU = 20.0
 #: The fewest effectively independent rows per parameter (n / tau_int / 6) measured there: 4,000
-#: used rows at the smoothed case's tau_int 25.
-SLS_CALIBRATED_PER_TERM = 25.0
+#: fitted rows of the smoothed noise, 33 at its tau_int 20.
+SLS_CALIBRATED_PER_TERM = 30.0
 
 
 @dataclass(frozen=True)

@@ -76,9 +76,9 @@ def lag_traces(
         ahead = min(stop + lags, n)
         size = fft.next_fast_len(ahead - start + lags, real=True)
         with one_blas_thread():
-            rows = np.asarray(exog[start:stop])
-            later = np.asarray(exog[start:ahead]) @ bread
-            spectrum = np.conj(fft.rfft(rows, n=size, axis=0)) * fft.rfft(later, n=size, axis=0)
+            around = np.asarray(exog[start:ahead])  # the block and the lags past it, built once
+            rows = fft.rfft(around[: stop - start], n=size, axis=0)
+            spectrum = np.conj(rows) * fft.rfft(around @ bread, n=size, axis=0)
             total += fft.irfft(spectrum.sum(axis=1), size)[: lags + 1]
     return total
 
