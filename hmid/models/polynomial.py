@@ -255,7 +255,7 @@ class PolynomialModel(ForceModel):
         resid = solved.resid
         self.hac_lags_ = None
         if self.errors == "autocov":
-            cov = autocov_covariance(exog, corr.gamma, bread)
+            cov = autocov_covariance(exog, corr.gamma, bread, spectrum=corr.spectrum)
             df = float(min(n - p, corr.dof(p)))
         elif self.errors == "hac":
             self.hac_lags_ = hac_lags(resid)

@@ -24,7 +24,7 @@ domain), about the cost of the sandwich's own.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -49,13 +49,16 @@ class FittedCorrelation:
     projection), Sokal's ``window`` M (None: it does not close within the lags examined or
     before the projection takes half the window), ``tau_int`` (corrected; at an open window the
     last value reached, a lower bound), ``raw_tau_int`` (the residual's own, as
-    :func:`residual_correlation` reads it) and ``n_eff`` = n / tau_int."""
+    :func:`residual_correlation` reads it), ``n_eff`` = n / tau_int, and the design's transform
+    where it was one block (``spectrum=`` of :func:`hmid.stats.autocov_covariance`)."""
 
     gamma: np.ndarray
     window: int | None
     tau_int: float
     raw_tau_int: float
     n_eff: float
+    #: ``(size, rfft(X, size))`` of a design of one block, for :func:`autocov_covariance`
+    spectrum: tuple[int, np.ndarray] | None = field(default=None, repr=False, compare=False)
 
     def dof(self, p: int) -> float:
         """Degrees of freedom of a t interval on ``p`` coefficients: n_eff - p, at least 1."""
@@ -63,23 +66,45 @@ class FittedCorrelation:
 
 
 def lag_traces(
-    exog: np.ndarray | RowBlocks, bread: np.ndarray, lags: int, block: int = TRACE_BLOCK
+    exog: np.ndarray | RowBlocks,
+    bread: np.ndarray,
+    lags: int,
+    block: int = TRACE_BLOCK,
+    spectrum: tuple[int, np.ndarray] | None = None,
 ) -> np.ndarray:
     """``h_k = tr(H D_k) = sum_t x_t' (X'X)^-1 x_{t+k}`` for k = 0..lags, ``bread`` = (X'X)^-1,
-    by blocks of ``block`` rows in the frequency domain."""
+    by blocks of ``block`` rows in the frequency domain: with ``bread = F F'``, ``H = U U'`` for
+    ``U = X F``, and h_k is the summed autocorrelation of U's columns (one transform of a block
+    that reaches the last row, two of any other: it and the rows ``lags`` past it). ``spectrum``
+    ``(size, rfft(X, size))`` of the whole design, size >= n + lags, replaces the passes (U's
+    transform is X's times F)."""
     from scipy import fft
 
+    w, v = np.linalg.eigh(bread)
+    factor = v * np.sqrt(np.maximum(w, 0.0))
     n = exog.shape[0]
+    if spectrum is not None:
+        size, transform = spectrum
+        if size < n + lags:
+            raise ValueError(f"lag_traces: a spectrum of {size} points holds no {lags} lags")
+        with one_blas_thread():
+            rotated = transform @ factor
+        power = (rotated.real**2 + rotated.imag**2).sum(axis=1)
+        return fft.irfft(power, size)[: lags + 1]
     total = np.zeros(lags + 1)
     for start in range(0, n, block):
         stop = min(start + block, n)
         ahead = min(stop + lags, n)
         size = fft.next_fast_len(ahead - start + lags, real=True)
         with one_blas_thread():
-            around = np.asarray(exog[start:ahead])  # the block and the lags past it, built once
-            rows = fft.rfft(around[: stop - start], n=size, axis=0)
-            spectrum = np.conj(rows) * fft.rfft(around @ bread, n=size, axis=0)
-            total += fft.irfft(spectrum.sum(axis=1), size)[: lags + 1]
+            around = np.asarray(exog[start:ahead]) @ factor  # the block and the lags past it
+            later = fft.rfft(around, n=size, axis=0)
+            if ahead == stop:  # the block is all there is to pair with: a power spectrum
+                power = later.real**2 + later.imag**2
+            else:
+                rows = fft.rfft(around[: stop - start], n=size, axis=0)
+                power = np.conj(rows) * later
+            total += fft.irfft(power.sum(axis=1), size)[: lags + 1]
     return total
 
 
@@ -96,9 +121,16 @@ def fitted_correlation(
     if not gamma[0] > 0:  # an exact fit
         return FittedCorrelation(gamma[:1], 0, 1.0, 1.0, float(n))
     most = gamma.size - 1
+    spectrum = None
+    if n <= TRACE_BLOCK:  # one transform of the design, for every pass and the sandwich
+        from scipy import fft
+
+        size = fft.next_fast_len(n + most, real=True)
+        with one_blas_thread():
+            spectrum = (size, fft.rfft(np.asarray(exog[0:n]), n=size, axis=0))
     lags = min(FIRST_LAGS, most)
     while True:
-        h = lag_traces(exog, bread, lags)
+        h = lag_traces(exog, bread, lags, spectrum=spectrum)
         summed = gamma[0] + 2.0 * np.concatenate([[0.0], np.cumsum(gamma[1 : lags + 1])])
         taken = (h[0] + 2.0 * np.concatenate([[0.0], np.cumsum(h[1:])])) / n
         readable = taken < PROJECTION_LIMIT
@@ -113,4 +145,4 @@ def fitted_correlation(
     m = last if window is None else window
     corrected = gamma[: m + 1] + lrv[m] * h[: m + 1] / n
     tau = float(taus[m])
-    return FittedCorrelation(corrected, window, tau, float(raw), n / tau)
+    return FittedCorrelation(corrected, window, tau, float(raw), n / tau, spectrum)

@@ -72,7 +72,8 @@ def sandwich_adjust(
     # the residual's autocovariance with what the fit took back: on 4,000 rows the raw one
     # reads the pipeline's smoothing (tau_int 20) as 15, and 90 % intervals covered 0.85
     corr = fitted_correlation(residual, design, bread)
-    target = autocov_covariance(design, corr.gamma, bread) / np.outer(scale, scale)
+    target = autocov_covariance(design, corr.gamma, bread, spectrum=corr.spectrum)
+    target /= np.outer(scale, scale)
     spread = np.cov(draws, rowvar=False)
     sd = np.sqrt(np.diag(spread))
     # in units of the posterior sd (well conditioned); in the posterior's whitened coordinates
