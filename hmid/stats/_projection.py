@@ -80,17 +80,20 @@ def lag_traces(
     transform is X's times F)."""
     from scipy import fft
 
-    w, v = np.linalg.eigh(bread)
-    factor = v * np.sqrt(np.maximum(w, 0.0))
     n = exog.shape[0]
     if spectrum is not None:
         size, transform = spectrum
         if size < n + lags:
             raise ValueError(f"lag_traces: a spectrum of {size} points holds no {lags} lags")
+        # |F_X f_j|² summed over j is Re(F_X B F_X^H) on the diagonal: in real arithmetic, the
+        # transform viewed as rows of (re, im) pairs (a zgemm would cost twice as much)
+        pairs = np.ascontiguousarray(transform).view(float)  # m x 2p: re, im per column
+        parts = pairs.reshape(-1, transform.shape[1], 2).transpose(0, 2, 1)  # m x 2 x p
         with one_blas_thread():
-            rotated = transform @ factor
-        power = (rotated.real**2 + rotated.imag**2).sum(axis=1)
+            power = ((parts @ bread) * parts).sum(axis=(1, 2))
         return fft.irfft(power, size)[: lags + 1]
+    w, v = np.linalg.eigh(bread)
+    factor = v * np.sqrt(np.maximum(w, 0.0))
     total = np.zeros(lags + 1)
     for start in range(0, n, block):
         stop = min(start + block, n)
@@ -128,7 +131,8 @@ def fitted_correlation(
         size = fft.next_fast_len(n + most, real=True)
         with one_blas_thread():
             spectrum = (size, fft.rfft(np.asarray(exog[0:n]), n=size, axis=0))
-    lags = min(FIRST_LAGS, most)
+    # the transform gives every lag at once; passes by blocks, only the lags the window needs
+    lags = most if spectrum is not None else min(FIRST_LAGS, most)
     while True:
         h = lag_traces(exog, bread, lags, spectrum=spectrum)
         summed = gamma[0] + 2.0 * np.concatenate([[0.0], np.cumsum(gamma[1 : lags + 1])])

@@ -3,6 +3,7 @@ traces are the dense tr(H D_k), and on a short log with many slow terms the corr
 correlation time is the errors' own where the residual's reads it short."""
 
 import numpy as np
+from scipy import fft
 from scipy.signal import lfilter
 
 from hmid.models._lstsq import RowBlocks
@@ -32,6 +33,9 @@ def test_the_lag_traces_are_the_hat_matrix_shifted_by_k_rows():
     np.testing.assert_allclose(lag_traces(X, bread, 24), expected, rtol=1e-10, atol=1e-12)
     for block in (7, 64, 299):  # by blocks of rows, each reaching k rows past its end
         np.testing.assert_allclose(lag_traces(X, bread, 24, block), expected, atol=1e-12)
+    size = fft.next_fast_len(300 + 24, real=True)  # from the design's own transform
+    whole = (size, fft.rfft(X, size, axis=0))
+    np.testing.assert_allclose(lag_traces(X, bread, 24, spectrum=whole), expected, atol=1e-12)
     blocks = RowBlocks(300, [lambda rows, j=j: X[rows, j] for j in range(3)])
     np.testing.assert_allclose(lag_traces(blocks, bread, 24, 50), expected, atol=1e-12)
 
