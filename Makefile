@@ -42,13 +42,17 @@ linear-motor-data: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
 
-## calibration: every family's interval coverage against known truth (issue 15; tens of minutes)
+## calibration: every family's interval coverage against known truth (issues 15, 30; tens of minutes)
 calibration: $(STAMP)
 	$(BIN)/python benchmarks/bench_calibration_polynomial.py --replications 200
+	$(BIN)/python benchmarks/bench_calibration_polynomial.py --replications 120 --seconds 3
+	$(BIN)/python benchmarks/bench_calibration_polynomial.py --replications 120 --seconds 3 --trajectory sines
 	$(BIN)/python benchmarks/bench_calibration_sindy.py --replications 100
 	$(BIN)/python benchmarks/bench_calibration_balance.py --replications 200
 	$(BIN)/python benchmarks/bench_calibration_friction.py --replications 300
 	$(BIN)/python benchmarks/bench_sls_calibration.py --posterior exact --datasets 120
+	$(BIN)/python benchmarks/bench_sls_calibration.py --posterior exact --datasets 40 --samples 32000 \
+	  --skip-speed --case smoothed:iid+sandwich
 
 ## blind: the full blind suite of the loop (about half an hour on 2 cores)
 blind: $(STAMP)

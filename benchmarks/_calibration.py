@@ -1,7 +1,9 @@
 """Shared by the interval-calibration benchmarks: the simulated trajectory and the noise models.
 
 The regressors x, v, P are one trajectory of hmid's Ch. 4 rig simulator (1 kHz, random pressure
-levels held 0.3-1 s), used exactly; noise of one model is added to a known target:
+levels held 0.3-1 s), used exactly, or (:func:`sines`) slow sinusoids, a slowly excited rig whose
+regressors each change over hundreds of rows: there a short log's fit takes the most of its
+residual's correlation. Noise of one model is added to a known target:
 
 * ``"white"``: i.i.d. Gaussian;
 * a number phi: stationary AR(1) of that coefficient (integrated correlation time
@@ -39,6 +41,14 @@ def trajectory(seconds: float) -> pd.DataFrame:
     profile = RandomLevels(low=6e4, high=2e5, hold_min=0.3, hold_max=1.0)
     traj = integrate(HydroMuscle(RigParams()), {"P_cmd": profile.command(t, rng)}, RATE)
     return pd.DataFrame({"x": traj.x, "v": traj.v, "P": traj.P})
+
+
+def sines(seconds: float) -> pd.DataFrame:
+    """x [m], v [m/s], P [Pa] as slow sinusoids (0.45-1.9 Hz), as ``tests/models``' rig log."""
+    t = np.arange(int(seconds * RATE)) / RATE
+    x = 0.0075 + 0.004 * np.sin(2 * np.pi * 0.7 * t) + 0.002 * np.sin(2 * np.pi * 1.9 * t + 1)
+    P = 1.2e5 + 6e4 * np.sin(2 * np.pi * 0.45 * t + 0.3)
+    return pd.DataFrame({"x": x, "v": np.gradient(x, t), "P": P})
 
 
 def noise(model: str | float, n: int, sigma: float, rng: np.random.Generator) -> np.ndarray:

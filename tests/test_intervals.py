@@ -20,3 +20,21 @@ def test_the_status_says_whether_the_fit_lies_in_the_calibrated_range():
     }
     with pytest.raises(ValueError, match="level"):
         IntervalNote(95, "OLS")
+
+
+def test_too_few_effective_rows_per_term_is_beyond_calibration():
+    # 3,000 rows, 16 terms: at tau_int 19 that is 9.9 effectively independent rows per term;
+    # at 40, 4.7 (below the benchmark's fewest, 8): beyond, whatever the correlation time says
+    args = (0.95, "OLS + autocovariance sandwich")
+    enough = IntervalNote(*args, 19.0, 66.0, "bench", n_rows=3000, n_terms=16,
+                          calibrated_per_term=8.0)  # fmt: skip
+    few = IntervalNote(*args, 40.0, 66.0, "bench", n_rows=3000, n_terms=16,
+                       calibrated_per_term=8.0)  # fmt: skip
+    assert enough.within and enough.status == (
+        "calibrated (τ_int 19 ≤ 66 rows; 9.87 ≥ 8 effective rows per term)"
+    )
+    assert not few.within and few.status == (
+        "BEYOND calibration (τ_int 40 rows; 4.69 < 8 effective rows per term)"
+    )
+    unchecked = IntervalNote(*args, 40.0, 66.0, "bench")  # no rows given: as before
+    assert unchecked.per_term is None and unchecked.within

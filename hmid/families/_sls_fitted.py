@@ -17,8 +17,12 @@ PREDICT_BATCH = 25  # posterior draws predicted at once for the band
 
 
 #: The longest residual correlation time (samples) at which the widened SLS intervals were
-#: measured: AR(1) phi = 0.8 and the smoothed white noise of benchmarks/bench_sls_calibration.py.
+#: measured: AR(1) phi = 0.8 and the smoothed white noise (tau_int 20) of
+#: benchmarks/bench_sls_calibration.py.
 SLS_CALIBRATED_TAU = 20.0
+#: The fewest effectively independent rows per parameter (n / tau_int / 6) measured there: 4,000
+#: fitted rows of the smoothed noise, 33 at its tau_int 20.
+SLS_CALIBRATED_PER_TERM = 30.0
 
 
 @dataclass(frozen=True)
@@ -124,11 +128,21 @@ class SLSFitted(FittedModel):
             return IntervalNote(
                 level, "posterior, widened to the autocovariance sandwich", a.tau_int,
                 SLS_CALIBRATED_TAU, "benchmarks/bench_sls_calibration.py", a.window is not None,
+                **self._rows_and_terms(),
             )  # fmt: skip
         if self.noise == "ar1":
             return IntervalNote(level, "posterior, AR(1) likelihood",
                                 claim="calibrated on AR(1) residuals")  # fmt: skip
         return IntervalNote(level, "posterior, i.i.d. likelihood")
+
+    def _rows_and_terms(self) -> dict[str, Any]:
+        """The adjusted fit's rows and parameters, for the label's effective rows per term
+        (none from a cached adjustment made before they were recorded)."""
+        a = self.adjustment
+        if not np.isfinite(getattr(a, "n_eff", np.nan)):
+            return {}
+        return {"n_rows": round(a.n_eff * a.tau_int), "n_terms": len(a.widening),
+                "calibrated_per_term": SLS_CALIBRATED_PER_TERM}  # fmt: skip
 
     def _interval_method(self) -> str:
         """The intervals' level, method and calibration (benchmarks/bench_sls_calibration.py)."""
@@ -136,12 +150,14 @@ class SLSFitted(FittedModel):
         a = self.adjustment
         if a is not None:
             widest = max(a.widening, key=a.widening.get)
-            within = a.window is not None and a.tau_int <= SLS_CALIBRATED_TAU
+            within = bool(self.interval_note().within)
             return (
                 f"{level}, widened to the sandwich covariance for the residual's autocovariance "
                 f"(correlation time {a.tau_int:.3g} samples; widths x{min(a.widening.values()):.2f}"
-                f"-{a.widening[widest]:.2f}, most for {widest}); calibrated for residual "
-                f"correlation times up to {SLS_CALIBRATED_TAU:g} samples, this fit "
+                f"-{a.widening[widest]:.2f}, most for {widest}; corrected for the fit's "
+                f"projection, the residual's own reads {a.raw_tau_int:.3g}); calibrated for "
+                f"residual correlation times up to {SLS_CALIBRATED_TAU:g} samples and at least "
+                f"{SLS_CALIBRATED_PER_TERM:g} effective rows per parameter, this fit "
                 f"{'within' if within else 'BEYOND'} that range"
             )
         if self.noise == "ar1":

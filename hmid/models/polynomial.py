@@ -13,16 +13,20 @@ residuals of a smoothed 1 kHz log are:
 
 - ``"autocov"`` (default): the OLS estimates with the covariance ``(X'X)^-1 X' S X (X'X)^-1``,
   ``S`` the Toeplitz matrix of the residual's autocovariance up to Sokal's window (the first lag
-  ``M >= 5 tau(M)``, as for MCMC chains) and t intervals on ``n / (2 M + 1)`` degrees of freedom.
+  ``M >= 5 tau(M)``, as for MCMC chains), each lag given back what the fit's projection took
+  (:func:`hmid.stats.fitted_correlation`: on 3,000 rows 16 terms take about a third of the
+  errors' long-run variance within the window, and the raw residual read tau_int 10 for 19), and
+  t intervals on ``n_eff - p`` degrees of freedom (n_eff = n / tau_int).
   It assumes stationary errors independent of the regressors (not heteroscedastic ones); it then
   needs one autocovariance, of the residual, instead of HAC's kernel over the products of
   regressors and residual, whose Bartlett weights bias it low unless the window is many
   correlation times long. Rows of several logs are joined as one series: a join adds a few wrong
   lag products, negligible on logs much longer than the window. Measured by
-  ``benchmarks/bench_calibration_polynomial.py`` (200 replications, 16-term cubic, a simulated
-  20 s, 1 kHz trajectory): 95 % intervals cover 0.947-0.966 under white, AR(1) phi 0.5-0.97
-  (correlation times up to 66 rows) and moving-average-smoothed noise, widths 1.00-1.06 of the
-  needed ones.
+  ``benchmarks/bench_calibration_polynomial.py`` (16-term cubic, simulated 1 kHz trajectories of
+  20 s and of 3 s, the rig's and slow sinusoids): 95 % intervals cover 0.93-0.97 under white,
+  AR(1) phi 0.5-0.97 (correlation times up to 66 rows) and moving-average-smoothed noise (see
+  docs/intervals.md). The label (:meth:`interval_note`) also counts the effectively independent
+  rows per term, n / tau_int / p: below :data:`POLYNOMIAL_CALIBRATED_PER_TERM` it says BEYOND.
 - ``"ols"``: independent errors; on correlated residuals far too narrow (coverage 0.32-0.74).
 - ``"hac"``: Newey-West with the lag window of :func:`hac_lags` (coverage 0.90-0.94: its Bartlett
   kernel over a window of a few correlation times is biased low; a pass over the rows per lag).
@@ -67,7 +71,13 @@ from hmid.models.terms import (
     resolve_terms,
     variable_unit,
 )
-from hmid.stats import autocov_covariance, hac_covariance, hac_lags, residual_correlation
+from hmid.stats import (
+    FittedCorrelation,
+    autocov_covariance,
+    fitted_correlation,
+    hac_covariance,
+    hac_lags,
+)
 
 __all__ = [
     "CONDITION_LIMIT",
@@ -88,6 +98,9 @@ ERRORS = ("autocov", "ols", "hac")
 #: The longest residual correlation time (samples) at which the default intervals were measured
 #: calibrated (AR(1) phi = 0.97 in benchmarks/bench_calibration_polynomial.py).
 POLYNOMIAL_CALIBRATED_TAU = 66.0
+#: The fewest effectively independent rows per term, n / tau_int / p, at which they were measured
+#: calibrated (AR(1) phi = 0.9 on 3 s, 3,000 rows, of the same benchmark).
+POLYNOMIAL_CALIBRATED_PER_TERM = 8.0
 #: Unit of the target, the muscle force.
 FORCE_UNIT = "N"
 
@@ -198,8 +211,16 @@ class PolynomialModel(ForceModel):
         params, resid, rank = solved.params, solved.resid, solved.rank
         cond = solved.condition_number()
         self.condition_number_unscaled_ = solved.condition_number(factor) if self.scale else cond
-        gamma, self.acf_window_, self.tau_int_ = residual_correlation(resid)
-        cov, df = self._covariance(exog, y, solved, gamma)
+        # the residual's autocovariance with what the fit's projection took back (hmid.stats):
+        # on a short log with many terms the raw one reads the correlation far too short
+        bread = solved.bread()
+        corr = fitted_correlation(resid, exog, bread)
+        self.acf_window_, self.tau_int_, self.raw_tau_int_ = (
+            corr.window,
+            corr.tau_int,
+            corr.raw_tau_int,
+        )
+        cov, df = self._covariance(exog, y, solved, corr, bread)
         del exog
         bse = np.sqrt(np.diag(cov))
         self.pvalues_, half = self._tests(params, bse, df)
@@ -226,17 +247,16 @@ class PolynomialModel(ForceModel):
             **fit_stats,
         )
 
-    def _covariance(self, exog, y: np.ndarray, solved, gamma: np.ndarray):
+    def _covariance(self, exog, y: np.ndarray, solved, corr: FittedCorrelation, bread):
         """``(cov, df)`` of the parameters on the scaled design, as ``errors`` says: the
-        residual's autocovariance (df: the effectively independent rows), Newey-West (df None:
-        normal intervals) or i.i.d. OLS."""
+        residual's autocovariance corrected for the projection (df: n_eff - p), Newey-West (df
+        None: normal intervals) or i.i.d. OLS."""
         n, p = y.size, len(self._terms)
         resid = solved.resid
         self.hac_lags_ = None
         if self.errors == "autocov":
-            lags = self.acf_window_ if self.acf_window_ is not None else gamma.size - 1
-            cov = autocov_covariance(exog, gamma[: lags + 1], solved.bread())
-            df = float(min(n - p, n / (2 * lags + 1)))
+            cov = autocov_covariance(exog, corr.gamma, bread, spectrum=corr.spectrum)
+            df = float(min(n - p, corr.dof(p)))
         elif self.errors == "hac":
             self.hac_lags_ = hac_lags(resid)
             cov, df = (
@@ -245,7 +265,7 @@ class PolynomialModel(ForceModel):
             )
         else:
             df = float(n - solved.rank)
-            cov = solved.bread() * float(resid @ resid) / df
+            cov = bread * float(resid @ resid) / df
         return cov, df
 
     def _tests(self, params: np.ndarray, bse: np.ndarray, df: float | None):
@@ -359,7 +379,8 @@ class PolynomialModel(ForceModel):
         return IntervalNote(
             self.confidence, "OLS + autocovariance sandwich", self.tau_int_,
             POLYNOMIAL_CALIBRATED_TAU, "benchmarks/bench_calibration_polynomial.py",
-            self.acf_window_ is not None,
+            self.acf_window_ is not None, n_rows=self.summary_.n_obs,
+            n_terms=self.summary_.n_params, calibrated_per_term=POLYNOMIAL_CALIBRATED_PER_TERM,
         )  # fmt: skip
 
     def interval_method(self) -> str:
@@ -378,16 +399,17 @@ class PolynomialModel(ForceModel):
                 "coverage on correlated noise, a little short of nominal"
             )
         lags = "the lags examined" if self.acf_window_ is None else f"±{self.acf_window_} lags"
-        status = (
-            "within" if self.acf_window_ is not None and self.tau_int_ <= POLYNOMIAL_CALIBRATED_TAU
-            else "BEYOND"
-        )  # fmt: skip
+        note = self.interval_note()
+        status = "within" if note.within else "BEYOND"
+        per_term = note.per_term if note.per_term is not None else float("nan")
         return (
-            f"{level}: OLS estimates, covariance from the residual's autocovariance over {lags}, "
-            f"t with {self.df_:.0f} df; calibrated for residual correlation times up to "
-            f"{POLYNOMIAL_CALIBRATED_TAU:g} rows (benchmarks/bench_calibration_polynomial.py); "
-            "this fit: "
-            f"{self.tau_int_:.3g} rows, {status} that range"
+            f"{level}: OLS estimates, covariance from the residual's autocovariance over {lags} "
+            f"(corrected for the fit's projection), t with {self.df_:.0f} df; calibrated for "
+            f"residual correlation times up to {POLYNOMIAL_CALIBRATED_TAU:g} rows and at least "
+            f"{POLYNOMIAL_CALIBRATED_PER_TERM:g} effective rows per term "
+            "(benchmarks/bench_calibration_polynomial.py); this fit: "
+            f"{self.tau_int_:.3g} rows (the residual's own reads {self.raw_tau_int_:.3g}), "
+            f"{per_term:.3g} effective rows per term, {status} that range"
         )
 
 

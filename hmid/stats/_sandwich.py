@@ -40,6 +40,7 @@ def autocov_covariance(
     *,
     rows: np.ndarray | None = None,
     segmented: Segmented | None = None,
+    spectrum: tuple[int, np.ndarray] | None = None,
 ) -> np.ndarray:
     """Covariance of OLS coefficients under stationary errors of autocovariance ``gamma`` (lags
     0..M, zero beyond), independent of the regressors: ``(X'X)^-1 X' S X (X'X)^-1`` with ``S`` the
@@ -49,7 +50,9 @@ def autocov_covariance(
     In row order (``segmented`` None), ``exog``'s rows are one record; ``X' S X`` is summed in
     the frequency domain (Parseval: one real FFT of the design, zero-padded past M so that the
     circular convolution is the linear one), over blocks of ``block`` rows so that no second
-    n x p array is held. Over segments, ``exog`` holds every row of ``segmented`` and ``rows``
+    n x p array is held; ``spectrum`` ``(size, rfft(exog, size))``, size >= n + M, is the
+    design's transform where it is one block (:class:`hmid.stats.FittedCorrelation` holds it).
+    Over segments, ``exog`` holds every row of ``segmented`` and ``rows``
     (boolean) those fitted; ``S`` is zero across segments and left-out rows, and ``X' S X`` is
     the masked columns times their overlap-add convolution with ``gamma``."""
     if segmented is None:
@@ -57,7 +60,7 @@ def autocov_covariance(
         if bread is None:
             X = np.asarray(exog)
             bread = np.linalg.pinv(X.T @ X)
-        meat = _row_meat(exog, gamma.size - 1, block)
+        meat = _row_meat(exog, gamma.size - 1, block, spectrum)
     else:
         if rows is None or bread is None:
             raise ValueError("autocov_covariance: segmented= needs rows= and bread= as well")
@@ -94,13 +97,17 @@ def _segment_meat(
 
 
 def _row_meat(
-    exog: np.ndarray | RowBlocks, lags: int, block: int
+    exog: np.ndarray | RowBlocks,
+    lags: int,
+    block: int,
+    spectrum: tuple[int, np.ndarray] | None = None,
 ) -> Callable[[np.ndarray], np.ndarray]:
     """``g -> X' S X`` for ``exog``'s rows as one record, summed by blocks in the frequency
-    domain."""
+    domain (a design of one block: its ``spectrum`` if given)."""
     from scipy import fft
 
     n, p = exog.shape
+    whole = spectrum if spectrum is not None and n <= block and spectrum[0] >= n + lags else None
 
     def meat(g: np.ndarray) -> np.ndarray:
         total = np.zeros((p, p))
@@ -109,6 +116,8 @@ def _row_meat(
             lo, hi = max(start - lags, 0), min(stop + lags, n)
             # rows lo..hi hold every row within M of a row of start..stop
             size = fft.next_fast_len(hi - lo + lags, real=True)
+            if whole is not None:  # the design's transform, one block of enough points
+                size = whole[0]
             kernel = np.zeros(size)
             kernel[: lags + 1], kernel[size - lags :] = g, g[:0:-1]
             weight = fft.rfft(kernel).real * 2.0  # the half spectrum counts twice ...
@@ -118,7 +127,10 @@ def _row_meat(
             # one BLAS thread: on a busy machine OpenBLAS's threads made such thin products
             # 1000x slower (0.6 s instead of 0.6 ms for 20,000 x 16)
             with one_blas_thread():
-                around = fft.rfft(exog[lo:hi], n=size, axis=0)
+                if whole is not None:
+                    around = whole[1]
+                else:
+                    around = fft.rfft(exog[lo:hi], n=size, axis=0)
                 if (lo, hi) == (start, stop):
                     inside = around
                 else:

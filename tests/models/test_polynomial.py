@@ -479,3 +479,18 @@ def test_a_design_of_one_block_is_built_once_for_every_pass() -> None:
         # design is built again on each pass (never held whole)
         assert len(calls) == 2 if blocks == 1 else len(calls) > 2 * blocks
     assert not design[:QR_BLOCK].flags.writeable and np.asarray(design).flags.writeable
+
+
+def test_on_a_short_log_the_correlation_time_is_corrected_for_the_fit_and_the_label_counts_rows():
+    # 3,000 rows of slowly varying regressors, 16 terms, AR(1) phi 0.97 (tau_int 66): the
+    # residual's own correlation time reads far short (the fit took the errors' slow part);
+    # corrected it reads longer, and with so few effective rows per term the label says BEYOND
+    X = _smooth_regressors(3000)
+    y = 1.0 + 2000.0 * X["x"] + _ar1(0.97, 0.02, len(X), np.random.default_rng(12))
+    model = PolynomialModel("cubic_xvP").fit(X, y.to_numpy())
+    assert model.tau_int_ > 1.3 * model.raw_tau_int_, (model.tau_int_, model.raw_tau_int_)
+    note = model.interval_note()
+    assert note.n_rows == 3000 and note.n_terms == 16 and not note.within
+    assert "effective rows per term" in note.status and "BEYOND" in model.interval_method()
+    # t on n_eff - p degrees of freedom
+    assert model.df_ == pytest.approx(3000 / model.tau_int_ - 16)

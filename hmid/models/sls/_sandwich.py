@@ -24,19 +24,23 @@ from hmid.models.sls._data import SLSData
 from hmid.models.sls._sampler_result import SamplerResult
 from hmid.models.sls.terms import SLSForce
 from hmid.signal.maxwell import responses
-from hmid.stats import autocov_covariance, residual_correlation
+from hmid.stats import autocov_covariance, fitted_correlation
 
 _H = 1e-3  # step in ln tau of the Jacobian's central difference
 
 
 @dataclass(frozen=True)
 class Adjustment:
-    """What the adjustment did: the residual's correlation time (samples) and Sokal's window
-    (None: it outlasts the lags examined), and each adjusted coordinate's width ratio."""
+    """What the adjustment did: the residual's correlation time (samples, corrected for the
+    fit's projection, :func:`hmid.stats.fitted_correlation`) and Sokal's window (None: it
+    outlasts the lags examined), each adjusted coordinate's width ratio, the residual's own
+    correlation time and the effective sample size n / tau_int."""
 
     tau_int: float
     window: int | None
     widening: dict[str, float]
+    raw_tau_int: float = float("nan")
+    n_eff: float = float("nan")
 
 
 def _jacobian(data: SLSData, force: SLSForce, beta: np.ndarray, log_tau: float) -> np.ndarray:
@@ -61,11 +65,15 @@ def sandwich_adjust(
     centre = np.median(draws, axis=0)
     jac = _jacobian(data, force, centre[:n_linear], float(centre[n_linear]))
     residual = np.asarray(data.F)[np.asarray(data.use)] - jac[:, :n_linear] @ centre[:n_linear]
-    gamma, window, tau_int = residual_correlation(residual)
-    lags = window if window is not None else gamma.size - 1
     scale = np.sqrt(np.mean(jac**2, axis=0))
     scale[scale == 0] = 1.0
-    target = autocov_covariance(jac / scale, gamma[: lags + 1]) / np.outer(scale, scale)
+    design = jac / scale
+    bread = np.linalg.pinv(design.T @ design)
+    # the residual's autocovariance with what the fit took back: on 4,000 rows the raw one
+    # reads the pipeline's smoothing (tau_int 20) as 15, and 90 % intervals covered 0.85
+    corr = fitted_correlation(residual, design, bread)
+    target = autocov_covariance(design, corr.gamma, bread, spectrum=corr.spectrum)
+    target /= np.outer(scale, scale)
     spread = np.cov(draws, rowvar=False)
     sd = np.sqrt(np.diag(spread))
     # in units of the posterior sd (well conditioned); in the posterior's whitened coordinates
@@ -84,4 +92,5 @@ def sandwich_adjust(
     names = [name.removeprefix("log_") for name in result.names[:k]]  # ln tau's width: tau's
     widening = dict(zip(names, adjusted.std(axis=0) / sd, strict=True))
     out = replace(result, chain=chain, walkers=walkers)
-    return out, Adjustment(tau_int, window, {n: float(w) for n, w in widening.items()})
+    widths = {n: float(w) for n, w in widening.items()}
+    return out, Adjustment(corr.tau_int, corr.window, widths, corr.raw_tau_int, corr.n_eff)

@@ -30,6 +30,9 @@ def test_an_ar1_residual_under_an_iid_likelihood_is_widened_until_it_covers():
         space, result, _ = _exact(data, seed=seed)
         adjusted, info = sandwich_adjust(result, data, SLSForce("cubic", 1))
         widening.append(list(info.widening.values()))
+        # the residual's correlation time given back what the fit took, never less than its own
+        assert info.tau_int >= info.raw_tau_int and info.window is not None
+        assert np.isclose(info.n_eff * info.tau_int, np.count_nonzero(data.use))
         for chain, out in ((result.chain, raw_hits), (adjusted.chain, hits)):
             draws = _physical(space, chain)
             for name in LINEAR:
