@@ -11,7 +11,13 @@ from typing import Any
 import hmid
 from hmid.control.config import DEMO, FIBRES, ControlConfig, ModelSection, load_control_config
 from hmid.control.inverse import ForceLaw
-from hmid.control.report import directions_markdown, figures, report, tables
+from hmid.control.report import (
+    directions_markdown,
+    figures,
+    report,
+    robustness_markdown,
+    tables,
+)
 from hmid.control.study import Study, run_study
 from hmid.files import write_json
 from hmid.report import write_report
@@ -83,10 +89,16 @@ def _write(study: Study, config: ControlConfig, run_dir: Path, model_paths: list
         path.parent.mkdir(parents=True, exist_ok=True)
         frame.to_csv(path, index=False)
     directions = "\n".join(
-        filter(None, (directions_markdown(frames["directions"], t.task) for t in study.tasks))
+        f"{t.task}:\n\n{table}"
+        for t in study.tasks
+        if (table := directions_markdown(frames["directions"], t.task))
     )
     if directions:  # the README's tracking-by-direction table, as the study wrote it
         (run_dir / "tables" / "directions.md").write_text(directions, encoding="utf-8")
+    if len(frames["robustness"]):  # in brief: the worst ratio and RMSE in sensor steps per case
+        (run_dir / "tables" / "robustness.md").write_text(
+            robustness_markdown(frames["robustness"]), encoding="utf-8"
+        )
     figures(study, run_dir)
     targets, robust = frames["targets"], frames["robustness"]
     proportional = targets[targets["valves"] == "proportional"]

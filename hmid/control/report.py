@@ -100,8 +100,7 @@ def directions_markdown(frame: pd.DataFrame, task: str) -> str:
         f"settling, {up} | settling, {down} |",
         "|---|---|---|---|---|---|---|",
     ]
-    for row in rows.itertuples(index=False):
-        r = row._asdict()
+    for r in rows.to_dict(orient="records"):
         values = [r[k] for k in ("up: travel (s)", "down: travel (s)")]
         settle = [r[k] for k in ("up: settling (s)", "down: settling (s)")]
         ratio = max(values) / min(values) if np.all(np.isfinite(values)) else float("nan")
@@ -110,6 +109,31 @@ def directions_markdown(frame: pd.DataFrame, task: str) -> str:
             f"{_seconds(values[1])} | {'—' if not np.isfinite(ratio) else f'{ratio:.2f}'} | "
             f"{_seconds(settle[0])} | {_seconds(settle[1])} |"
         )
+    return "\n".join(lines) + "\n"
+
+
+def robustness_markdown(frame: pd.DataFrame) -> str:
+    """The robustness table in brief as Markdown (written by the run as
+    ``tables/robustness.md``; docs/control.md shows it): per task, valves and controller, each
+    perturbed plant's worst ratio to the nominal RMSE over the references, and that worst RMSE
+    in sensor steps."""
+    if not len(frame):
+        return ""
+    cases = list(dict.fromkeys(frame["plant"]))
+    lines = [
+        "| task | valves | controller | " + " | ".join(cases) + " |",
+        "|---|---|---|" + "---|" * len(cases),
+    ]
+    keys = dict.fromkeys(zip(frame["task"], frame["valves"], frame["controller"], strict=True))
+    for task, valves, controller in keys:
+        rows = frame[(frame["task"] == task) & (frame["valves"] == valves)
+                     & (frame["controller"] == controller)]  # fmt: skip
+        cells = []
+        for case in cases:
+            of = rows[rows["plant"] == case]
+            worst = of.loc[of["worst ratio"].idxmax()]
+            cells.append(f"{worst['worst ratio']:.2f}× ({worst['worst rmse / sensor step']:.2g})")
+        lines.append(f"| {task} | {valves} | {controller} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
