@@ -208,8 +208,12 @@ def _control(args: argparse.Namespace) -> int:
 
     say = None if args.quiet else (lambda what: print(f"hmid control: {what}", file=sys.stderr))
     run_dir, metrics = run(Path(args.config), results=Path(args.results), progress=say)
+    said = {True: "met", False: "not met", None: "n/a"}
     for name, met in metrics["targets"].items():
-        print(f"{name}: {'met' if met else 'not met' if met is not None else 'n/a'}")
+        if isinstance(met, dict):  # robustness by controller and valves
+            print(f"{name}: " + "; ".join(f"{k} {said[v]}" for k, v in met.items()))
+        else:
+            print(f"{name}: {said[met]}")
     print(f"report: {run_dir / 'report.html'}")
     return 0
 

@@ -3,10 +3,12 @@
 The thesis identifies the Hydro Muscle in order to control it (§1.3-1.4, Fig. 1.3): feed-forward
 from the model's inverse dynamics plus feedback. This package runs that on the simulator's rigs:
 
-* :mod:`~hmid.control.controllers`: the PD set-point tracker, and feed-forward + the same PD;
+* :mod:`~hmid.control.controllers`: the PD set-point tracker, feed-forward + the same PD, and
+  that plus integral action (a PID with anti-windup);
 * :mod:`~hmid.control.inverse`: a loaded model solved for the pressure a motion or force needs;
 * :mod:`~hmid.control.actuation`: a pressure command on proportional or on/off valves;
 * :mod:`~hmid.control.tuning`: the PD's tuning rule on the linearised plant (python-control);
+  :mod:`~hmid.control.integral`: the PID's (the largest integral gain with the same margins);
 * :mod:`~hmid.control.plant`: the seam to a rig (the Ch. 4 rig's adaptor);
   :mod:`~hmid.control.ankle`: the Ch. 6 ankle's (recruitment, the joint's balance inverted);
 * :mod:`~hmid.control.references`, :mod:`~hmid.control.experiments`,
@@ -27,8 +29,9 @@ if TYPE_CHECKING:
     from hmid.control.actuation import PWM, Proportional, Switching, switchings
     from hmid.control.ankle import AnkleRig, FibreLaws, recruit
     from hmid.control.config import ControlConfig, load_control_config
-    from hmid.control.controllers import PD, Tracker
+    from hmid.control.controllers import PD, PID, Tracker
     from hmid.control.experiments import Tracking, feedforward, track
+    from hmid.control.integral import tune_pid
     from hmid.control.inverse import ForceLaw, NotInvertible
     from hmid.control.metrics import Metrics
     from hmid.control.plant import MuscleRig, Plant
@@ -47,10 +50,12 @@ _LAZY = {
     "ControlConfig": "hmid.control.config",
     "load_control_config": "hmid.control.config",
     "PD": "hmid.control.controllers",
+    "PID": "hmid.control.controllers",
     "Tracker": "hmid.control.controllers",
     "Tracking": "hmid.control.experiments",
     "feedforward": "hmid.control.experiments",
     "track": "hmid.control.experiments",
+    "tune_pid": "hmid.control.integral",
     "ForceLaw": "hmid.control.inverse",
     "NotInvertible": "hmid.control.inverse",
     "Metrics": "hmid.control.metrics",
@@ -66,6 +71,7 @@ _LAZY = {
 }
 __all__ = [
     "PD",
+    "PID",
     "PWM",
     "AnkleRig",
     "ControlConfig",
@@ -91,6 +97,7 @@ __all__ = [
     "switchings",
     "track",
     "tune",
+    "tune_pid",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY)

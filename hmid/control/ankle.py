@@ -161,6 +161,11 @@ class AnkleRig:
         mask = jnp.asarray(np.array(self.engaged))
         return Recruited(self.realisation, mask, jnp.asarray(idle))
 
+    @property
+    def limits(self) -> tuple[float, float]:
+        """(lowest, highest) pressure in a fibre: vented to the supply."""
+        return 0.0, float(self.params.supply)
+
     def pressures(self, effort: float) -> tuple[float, ...]:
         """Per active fibre: the effort if engaged, the supply (slack) if not."""
         return tuple(float(effort) if e else self.params.supply for e in self.engaged)

@@ -19,6 +19,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from hmid._messages import format_validation_error
 from hmid.config import Positive, read_yaml
+from hmid.control.experiments import ControllerKind
 from hmid.control.references import REFERENCE_KINDS, ReferenceKind
 from hmid.errors import ConfigError
 from hmid.simulate.effects import make_effect
@@ -123,8 +124,9 @@ class TrackingTasks(_Strict):
 
 
 class ControllerSection(_Strict):
-    """The PD's tuning rule (:mod:`hmid.control.tuning`) and what the controller knows of its
-    valve (its datasheet's lag, inverted by the feed-forward)."""
+    """The PD's tuning rule (:mod:`hmid.control.tuning`; FF+PID's, :mod:`hmid.control.integral`,
+    asks the same margins) and what the controller knows of its valve (its datasheet's lag,
+    inverted by the feed-forward)."""
 
     gain_margin_db: Positive = 6.0
     phase_margin_deg: Annotated[float, Field(gt=0, lt=90)] = 45.0
@@ -172,6 +174,8 @@ class ControlConfig(_Strict):
     transition: Positive = 0.25
     frequency: Positive = 1.0
     references: tuple[ReferenceKind, ...] = REFERENCE_KINDS
+    # PD alone and FF+PD always (the comparison); FF+PID adds integral action to FF+PD
+    controllers: tuple[ControllerKind, ...] = ("PD", "FF+PD")
     noise: bool = True  # the sensors' noise (the demo's: 15 um, 6 mN)
     tasks: TrackingTasks = TrackingTasks()
     controller: ControllerSection = ControllerSection()
@@ -181,6 +185,14 @@ class ControlConfig(_Strict):
 
     @model_validator(mode="after")
     def _timing(self) -> ControlConfig:
+        missing = [c for c in ("PD", "FF+PD") if c not in self.controllers]
+        if (
+            missing
+            or "FF" in self.controllers
+            or len(set(self.controllers)) < len(self.controllers)
+        ):
+            raise ValueError(f"controllers: {list(self.controllers)}: want PD and FF+PD, and "
+                             "FF+PID if asked, each once")  # fmt: skip
         if (self.model is None) == (self.ankle is None):
             raise ValueError("give a model (the Ch. 4 rig) or an ankle section, one of them")
         if self.ankle is not None and self.ankle.engaged is not None:

@@ -4,6 +4,8 @@ The controllers (:mod:`hmid.control.controllers`) are named by what their feed-f
 
 * ``PD``: the PD set-point tracker with its operating point's pressure;
 * ``FF+PD``: the identified model's inverse dynamics plus the same PD;
+* ``FF+PID``: the same feed-forward plus a PID (:mod:`hmid.control.integral`: integral action
+  for what the model misses, with anti-windup at the valves' limits);
 * ``FF``: the inverse dynamics alone (no feedback: the perfect-model check).
 
 A run simulates the plant's rig under the tracker in one compiled scan
@@ -18,7 +20,7 @@ from typing import Literal
 import jax.numpy as jnp
 import numpy as np
 
-from hmid.control.controllers import PD, Tracker
+from hmid.control.controllers import PD, PID, Tracker
 from hmid.control.inverse import ForceLaw
 from hmid.control.metrics import Metrics, tracking_score
 from hmid.control.plant import Plant
@@ -26,8 +28,8 @@ from hmid.control.references import Reference
 from hmid.control.tuning import Tuning
 from hmid.simulate.rig import closed_loop
 
-ControllerKind = Literal["PD", "FF+PD", "FF"]
-CONTROLLERS: tuple[ControllerKind, ...] = ("PD", "FF+PD", "FF")
+ControllerKind = Literal["PD", "FF+PD", "FF+PID", "FF"]
+CONTROLLERS: tuple[ControllerKind, ...] = ("PD", "FF+PD", "FF+PID", "FF")
 
 
 @dataclass(frozen=True)
@@ -49,10 +51,19 @@ class Tracking:
 
 
 def tracker(plant: Plant, tuning: Tuning, controller: ControllerKind = "FF+PD") -> Tracker:
-    """The tracker of ``plant`` with the tuned gains (arrays: new gains do not recompile)."""
+    """The tracker of ``plant`` with the tuned gains (arrays: new gains do not recompile); a
+    PID for ``FF+PID`` (``tuning`` then :func:`~hmid.control.integral.tune_pid`'s), its
+    anti-windup at the plant's :attr:`~hmid.control.plant.Plant.limits`, its deadband half the
+    sensor's step."""
     pd = PD(*(jnp.asarray(v, dtype=float) for v in (tuning.kp, tuning.kd, tuning.tf,
                                                        tuning.dt)))  # fmt: skip
-    return Tracker(pd, plant.tracked, jnp.asarray(plant.resolution), plant.actuation,
+    law: PD | PID = pd
+    if controller == "FF+PID":
+        if tuning.ki == 0:
+            raise ValueError("FF+PID needs a PID's tuning (hmid.control.integral.tune_pid)")
+        law = PID(pd, *(jnp.asarray(v, dtype=float) for v in (tuning.ki, *plant.limits,
+                                                              plant.resolution / 2)))  # fmt: skip
+    return Tracker(law, plant.tracked, jnp.asarray(plant.resolution), plant.actuation,
                    jnp.asarray(0.0 if controller == "FF" else 1.0))  # fmt: skip
 
 

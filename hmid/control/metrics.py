@@ -4,7 +4,9 @@ The error is the tracked output as the rig logged it (the truth, not the sensor)
 reference at the same instant. The settling time of a step counts from the end of its
 transition (when the reference has arrived) to the last time the error leaves a band of 2 % of
 the step, or two sensor steps if that is wider: a controller that never leaves the band settles
-in 0 s, one that is still outside at the end never settles (infinity). Switchings count the
+in 0 s, one that is still outside at the end never settles (infinity). The travel time of a
+step counts from the reference's first move to the output's first arrival at 90 % of its own
+travel (the thesis's travel by direction, Ch. 6; infinity if it never arrives). Switchings count the
 on/off valves' operations (None for a proportional valve).
 """
 
@@ -26,6 +28,22 @@ class Metrics:
     max_error: float
     settling_s: float  # NaN where the reference has no step; inf if it never settles
     switchings: int | None
+    travel_s: float = float("nan")  # to 90 % of a step; NaN where the reference has none
+
+
+def travel_time(ref: Reference, t: np.ndarray, y: np.ndarray, fraction: float = 0.9) -> float:
+    """Seconds from a step reference's first move to the output's first arrival at
+    ``fraction`` of its own travel, from where it started to where it ends (the median of the
+    run's last tenth: a PD that stops short of the target still travels, and a valve's limit
+    cycle is averaged); NaN without a step, infinity if it never arrives."""
+    if not np.isfinite(ref.settle_from):
+        return float("nan")
+    moved = np.flatnonzero(ref.y != ref.y[0])
+    start = float(ref.t[max(int(moved[0]) - 1, 0)])
+    end = float(np.median(y[-max(len(y) // 10, 1) :]))
+    progress = (y - y[0]) / (end - y[0])
+    arrived = np.flatnonzero((t >= start) & (progress >= fraction))
+    return float(t[arrived[0]] - start) if arrived.size else float("inf")
 
 
 def tracking_score(
@@ -49,4 +67,5 @@ def tracking_score(
         max_error=float(np.max(np.abs(error))),
         settling_s=settling,
         switchings=None if valve is None else switchings(valve),
+        travel_s=travel_time(ref, t, y),
     )

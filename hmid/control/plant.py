@@ -57,6 +57,9 @@ class Plant(Protocol):
     @property
     def actuation(self) -> Any: ...  # one effort -> the rig's input commands (an Actuation)
 
+    @property
+    def limits(self) -> tuple[float, float]: ...  # the effort the valves can give (Pa)
+
     def rig(self, effort0: float = 0.0) -> SimulatedRig: ...  # at rest with the effort effort0
 
     def inputs(self, n: int, effort0: float) -> dict[str, np.ndarray]: ...
@@ -115,6 +118,16 @@ class MuscleRig:
             return self.sensor_step
         sensors = Sensors()  # the demo's 10-bit sensors: 0.01 N, 0.02 mm
         return sensors.F.lsb if self.task == "force" else sensors.x.lsb
+
+    @property
+    def limits(self) -> tuple[float, float]:
+        """(lowest, highest) pressure the valves give: the proportional valve's command range,
+        or vented to the on/off valves' supply."""
+        if self.valves is not None:
+            return 0.0, float(self.valves.supply)
+        actuation = self.actuation
+        assert isinstance(actuation, Proportional)
+        return float(actuation.lowest), float(actuation.highest)
 
     def rig(self, effort0: float = 0.0) -> HydroMuscle:
         x0 = self.hold_at if self.task == "force" else None

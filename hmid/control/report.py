@@ -12,24 +12,29 @@ from hmid.control.study import ControllerKind, Study, TaskResult
 from hmid.report import Figure, Report, Section, Table
 
 REDUCTION, ROBUST = 0.5, 1.5  # the issue's targets: FF+PD at most half PD's RMSE; 1.5x spread
+DIRECTIONS = ("step_up", "step_down")
+
+
+def _tuning_row(task: TaskResult, tn, controller: str, valves: str) -> dict:
+    return {"task": task.task, "controller": controller, "valves": valves,
+            "kp (Pa/unit)": tn.kp, "ki (Pa/unit/s)": tn.ki, "kd (Pa s/unit)": tn.kd,
+            "tf (s)": tn.tf, "crossover (Hz)": tn.crossover_hz,
+            "gain margin (dB)": tn.gain_margin_db, "phase margin (deg)": tn.phase_margin_deg,
+            "slowest pole (s)": tn.slowest_pole_s, "stable": tn.stable}  # fmt: skip
 
 
 def tables(study: Study) -> dict[str, pd.DataFrame]:
     """The study's tables by file name."""
     tuning, tracking, targets, robust = [], [], [], []
     for task in study.tasks:
-        tn = task.tuning
-        tuning.append({"task": task.task, "kp (Pa/unit)": tn.kp, "kd (Pa s/unit)": tn.kd,
-                       "tf (s)": tn.tf, "crossover (Hz)": tn.crossover_hz,
-                       "gain margin (dB)": tn.gain_margin_db,
-                       "phase margin (deg)": tn.phase_margin_deg,
-                       "slowest pole (s)": tn.slowest_pole_s, "stable": tn.stable})  # fmt: skip
+        tuning.append(_tuning_row(task, task.tuning, "PD, FF+PD", "all"))
+        tuning += [_tuning_row(task, tn, "FF+PID", v) for v, tn in task.integral.items()]
         for (kind, valves, controller), run in task.runs.items():
             m = run.metrics
             tracking.append({"task": task.task, "reference": kind, "valves": valves,
                              "controller": controller, "rmse": m.rmse,
                              "max error": m.max_error, "unit": task.unit,
-                             "settling (s)": m.settling_s,
+                             "settling (s)": m.settling_s, "travel 90 % (s)": m.travel_s,
                              "switchings": m.switchings})  # fmt: skip
         kinds = sorted({k for k, _, _ in task.runs}, key=list(task.spreads).index)
         for kind in kinds:
@@ -41,13 +46,95 @@ def tables(study: Study) -> dict[str, pd.DataFrame]:
                                 "FF+PD rmse": ff, "unit": task.unit, "reduction": cut,
                                 "met (>= 50 %)": bool(cut >= REDUCTION)})  # fmt: skip
             for spread in task.spreads[kind]:
-                robust.append({"task": task.task, "reference": kind, "plant": spread.case,
-                               "nominal rmse": spread.nominal_rmse,
-                               "worst rmse": float(np.max(spread.rmse)), "unit": task.unit,
+                worst = float(np.max(spread.rmse))
+                robust.append({"task": task.task, "reference": kind, "valves": spread.valves,
+                               "controller": spread.controller, "plant": spread.case,
+                               "nominal rmse": spread.nominal_rmse, "worst rmse": worst,
+                               "unit": task.unit,
+                               "worst rmse / sensor step": worst / task.resolution,
                                "median ratio": spread.median, "worst ratio": spread.worst,
                                "met (<= 1.5x)": bool(spread.worst <= ROBUST)})  # fmt: skip
     return {"tuning": pd.DataFrame(tuning), "tracking": pd.DataFrame(tracking),
-            "targets": pd.DataFrame(targets), "robustness": pd.DataFrame(robust)}  # fmt: skip
+            "targets": pd.DataFrame(targets), "robustness": pd.DataFrame(robust),
+            "directions": directions(study)}  # fmt: skip
+
+
+def directions(study: Study) -> pd.DataFrame:
+    """Tracking by direction: per task, valves and controller, the travel time (to 90 % of the
+    output's own travel: :func:`~hmid.control.metrics.travel_time`) and the settling time of
+    step_up and of step_down, and the slower over the faster
+    (thesis Ch. 6: the valves open and close at different speeds). Empty without both steps."""
+    rows = []
+    for task in study.tasks:
+        controllers = list(dict.fromkeys(c for _, _, c in task.runs))
+        for valves in study.valves:
+            for controller in controllers:
+                up, down = (task.runs.get((k, valves, controller)) for k in DIRECTIONS)
+                if up is None or down is None:
+                    continue
+                times = (up.metrics.travel_s, down.metrics.travel_s)
+                rows.append({"task": task.task, "valves": valves, "controller": controller,
+                             "up: travel (s)": times[0], "down: travel (s)": times[1],
+                             "slower / faster": max(times) / min(times),
+                             "up: settling (s)": up.metrics.settling_s,
+                             "down: settling (s)": down.metrics.settling_s,
+                             "up: rmse": up.metrics.rmse, "down: rmse": down.metrics.rmse,
+                             "unit": task.unit})  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def _seconds(value: float) -> str:
+    return "never" if value == np.inf else ("—" if not np.isfinite(value) else f"{value:.3f} s")
+
+
+def directions_markdown(frame: pd.DataFrame, task: str) -> str:
+    """The tracking-by-direction table of ``task`` as Markdown (what the README shows, written
+    by the run as ``tables/directions.md``): travel and settling times up and down per valves
+    and controller. On the ankle up is a plantarflexion, down a dorsiflexion."""
+    rows = frame[frame["task"] == task] if len(frame) else frame
+    if not len(rows):
+        return ""
+    up, down = ("plantarflexion", "dorsiflexion") if task == "angle" else ("up", "down")
+    lines = [
+        f"| valves | controller | travel, {up} | travel, {down} | slower / faster | "
+        f"settling, {up} | settling, {down} |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in rows.to_dict(orient="records"):
+        values = [r[k] for k in ("up: travel (s)", "down: travel (s)")]
+        settle = [r[k] for k in ("up: settling (s)", "down: settling (s)")]
+        ratio = max(values) / min(values) if np.all(np.isfinite(values)) else float("nan")
+        lines.append(
+            f"| {r['valves']} | {r['controller']} | {_seconds(values[0])} | "
+            f"{_seconds(values[1])} | {'—' if not np.isfinite(ratio) else f'{ratio:.2f}'} | "
+            f"{_seconds(settle[0])} | {_seconds(settle[1])} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def robustness_markdown(frame: pd.DataFrame) -> str:
+    """The robustness table in brief as Markdown (written by the run as
+    ``tables/robustness.md``; docs/control.md shows it): per task, valves and controller, each
+    perturbed plant's worst ratio to the nominal RMSE over the references, and that worst RMSE
+    in sensor steps."""
+    if not len(frame):
+        return ""
+    cases = list(dict.fromkeys(frame["plant"]))
+    lines = [
+        "| task | valves | controller | " + " | ".join(cases) + " |",
+        "|---|---|---|" + "---|" * len(cases),
+    ]
+    keys = dict.fromkeys(zip(frame["task"], frame["valves"], frame["controller"], strict=True))
+    for task, valves, controller in keys:
+        rows = frame[(frame["task"] == task) & (frame["valves"] == valves)
+                     & (frame["controller"] == controller)]  # fmt: skip
+        cells = []
+        for case in cases:
+            of = rows[rows["plant"] == case]
+            worst = of.loc[of["worst ratio"].idxmax()]
+            cells.append(f"{worst['worst ratio']:.2f}× ({worst['worst rmse / sensor step']:.2g})")
+        lines.append(f"| {task} | {valves} | {controller} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def ripple(task: TaskResult, valves: str) -> float:
@@ -130,9 +217,11 @@ def report(
                 "model's linearisation (valve lag included, friction left out) is stable with at "
                 f"least {config.controller.gain_margin_db} dB gain and "
                 f"{config.controller.phase_margin_deg} deg phase margin; margins and poles by "
-                f"python-control. {_resonances(study)}"
+                f"python-control. {_resonances(study)} FF+PID (hmid/control/integral.py), "
+                "where asked: the largest integral gain with the same margins (MIGO), per valve "
+                "kind, the on/off loop behind the valves' switching delay (opening + closing)."
             ),
-            tables=(Table(frames["tuning"], "PD gains and python-control's margins"),),
+            tables=(Table(frames["tuning"], "Gains and python-control's margins"),),
         ),
         Section(
             "PD alone vs model-based feed-forward + PD (same gains)",
@@ -152,13 +241,24 @@ def report(
         Section(
             "Robustness",
             (
-                "The nominal model's controller on plants it was not designed for: muscles drawn "
-                "from the model's posterior, and undeclared effects switched on (each alone). "
-                "Target: RMSE <= 1.5x the nominal plant's."
+                "The nominal model's controllers (FF+PD; FF+PID where asked) on plants they were "
+                "not designed for, on every valve kind: muscles drawn from the model's "
+                "posterior, and undeclared effects switched on (each alone). Target: RMSE <= "
+                "1.5x the nominal plant's (same controller, same valves). Where the nominal "
+                "RMSE is a fraction of the sensor's step the ratio runs large on errors the "
+                "sensor cannot see: the worst RMSE in sensor steps stands beside it."
             ),
             tables=(Table(frames["robustness"], "RMSE ratio to the nominal plant"),),
         ),
     ]
+    if len(frames["directions"]):
+        sections.insert(2, Section(
+            "Tracking by direction",
+            ("The steps each way: travel time from the reference's first move to 90 % of the "
+             "output's own travel (where it ends: PD alone stops short of the target), and "
+             "settling time (2 % band, or two sensor steps)." + _directions(study)),
+            tables=(Table(frames["directions"], "Travel and settling by direction"),),
+        ))  # fmt: skip
     if len(study.valves) > 1:
         sections.insert(2, _on_off_section(study, config))
     said = {True: "met", False: "not met", None: "n/a"}
@@ -168,6 +268,14 @@ def report(
         f"on/off valves: {said[targets['reduction_met_on_off']]}; robustness (<= 1.5x): "
         f"{said[targets['robustness_met']]}."
     )
+    if targets.get("robustness_met_by"):
+        lead += (
+            " Robustness by controller and valves: "
+            + "; ".join(
+                f"{name}: {said[met]}" for name, met in targets["robustness_met_by"].items()
+            )
+            + "."
+        )
     return Report(
         f"Control study: {config.name}",
         sections=tuple(sections),

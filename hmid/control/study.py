@@ -4,7 +4,10 @@ and shake the plant; typed results for the report (:mod:`pipelines.control` writ
 Per task (force, position on the Ch. 4 rig; angle on the ankle) the PD is tuned once on the
 model's linearisation at the first reference's start and keeps its gains for every reference,
 valve and plant: PD alone and feed-forward + PD run at the same gains. With on/off valves the
-same PD's effort is switched on the valves (:mod:`hmid.control.actuation`). The perturbed plants
+same PD's effort is switched on the valves (:mod:`hmid.control.actuation`). FF+PID, where the
+config asks for it, is tuned on the same linearisation per valve kind (the on/off loop behind
+the valves' switching delay: :mod:`hmid.control.integral`). The robustness study runs every
+model-based controller on every valve kind. The perturbed plants
 (robustness) are each rig's own: the muscle drawn from the model's posterior on the Ch. 4 rig,
 every fibre drawn from its type's posterior (or the build's scatter) on the ankle
 (:mod:`hmid.control.ankle_study`), and undeclared effects on both.
@@ -13,13 +16,14 @@ every fibre drawn from its type's posterior (or the build's scatter) on the ankl
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from hmid.control.actuation import PWM, Switching
 from hmid.control.config import ControlConfig
 from hmid.control.experiments import ControllerKind, FeedForward, Tracking, feedforward, track
+from hmid.control.integral import delayed, tune_pid
 from hmid.control.inverse import ForceLaw
 from hmid.control.plant import MuscleRig, Plant
 from hmid.control.references import Reference, reference
@@ -42,6 +46,7 @@ class TaskResult:
     gain: float  # the linearised plant's static gain (tracked unit per Pa)
     runs: dict[tuple[str, str, ControllerKind], Tracking]
     spreads: dict[str, list[Spread]]  # reference kind -> robustness cases
+    integral: dict[str, Tuning] = field(default_factory=dict)  # valves -> FF+PID's gains
 
     def reduction(self, kind: str, valves: str) -> float:
         """1 - RMSE(FF+PD) / RMSE(PD) (the issue's target: >= 0.5)."""
@@ -101,13 +106,21 @@ def valve_kinds(config: ControlConfig) -> tuple[str, ...]:
     return ("proportional", f"on/off ({config.on_off.realisation})")
 
 
-def _rmse(plant: Plant, tuning: Tuning, ff: FeedForward, ref: Reference, seed: int) -> float:
-    """FF+PD's RMSE on a perturbed plant; infinite where the run breaks the rig's physics (the
-    string goes slack): the controller failed there."""
+def _rmse(plant: Plant, tuning: Tuning, ff: FeedForward, ref: Reference, seed: int,
+          controller: ControllerKind = "FF+PD") -> float:  # fmt: skip
+    """A model-based controller's RMSE on a perturbed plant; infinite where the run breaks the
+    rig's physics (the string goes slack): the controller failed there."""
     try:
-        return track(plant, tuning, ff, ref, "FF+PD", seed).metrics.rmse
+        return track(plant, tuning, ff, ref, controller, seed).metrics.rmse
     except SimulationError:
         return float("inf")
+
+
+def switching_delay(config: ControlConfig, valves: str) -> float:
+    """The dead time the on/off valves add to the loop (s; 0 for the proportional valve)."""
+    if valves == "proportional" or config.on_off is None:
+        return 0.0
+    return config.on_off.valves.opening_time + config.on_off.valves.closing_time
 
 
 def run_tracking_task(
@@ -120,32 +133,46 @@ def run_tracking_task(
     seed: int,
     progress: Callable[[str], None] | None = None,
 ) -> TaskResult:
-    """Tune the PD on ``plant``'s linearisation by ``law``, track every reference with PD and
-    FF+PD on every valve kind, and the perturbed plants with FF+PD."""
+    """Tune the PD (and FF+PID's PID per valve kind) on ``plant``'s linearisation by ``law``,
+    track every reference with every controller on every valve kind, and the perturbed plants
+    with the model-based ones."""
     ctl = config.controller
     first = next(iter(refs.values()))
     linear = plant.linear(law, first, ctl.valve_tau)
-    tuning = tune(linear, 1.0 / config.rate,
-                  gain_margin_db=ctl.gain_margin_db, phase_margin_deg=ctl.phase_margin_deg,
-                  tf=ctl.derivative_filter_s)  # fmt: skip
+    margins = {"gain_margin_db": ctl.gain_margin_db, "phase_margin_deg": ctl.phase_margin_deg,
+               "tf": ctl.derivative_filter_s}  # fmt: skip
+    tuning = tune(linear, 1.0 / config.rate, **margins)
+    integral = {
+        name: tune_pid(delayed(linear, switching_delay(config, name)), 1.0 / config.rate,
+                       **margins)
+        for name in valve_kinds(config)
+        if "FF+PID" in config.controllers
+    }  # fmt: skip
+    gains = {c: tuning for c in ("PD", "FF+PD")}
     runs: dict[tuple[str, str, ControllerKind], Tracking] = {}
     spreads: dict[str, list[Spread]] = {}
     for kind, ref in refs.items():
         if progress:
             progress(f"{task}: {kind}")
+        spreads[kind] = []
         for name in valve_kinds(config):
             target = plant if name == "proportional" else on_off(plant, config)
-            for controller in ("PD", "FF+PD"):
+            gains["FF+PID"] = integral.get(name, tuning)
+            for controller in config.controllers:
                 ff = feedforward(target, law, ref, controller, ctl.valve_tau)
-                runs[(kind, name, controller)] = track(target, tuning, ff, ref, controller, seed)
-        nominal = runs[(kind, "proportional", "FF+PD")].metrics.rmse
-        ff = feedforward(plant, law, ref, "FF+PD", ctl.valve_tau)
-        spreads[kind] = [
-            Spread(case, nominal, np.array([_rmse(p, tuning, ff, ref, seed) for p in cases]))
-            for case, cases in perturbed
-        ]
+                runs[(kind, name, controller)] = track(target, gains[controller], ff, ref,
+                                                       controller, seed)  # fmt: skip
+            for controller in (c for c in config.controllers if c != "PD"):
+                nominal = runs[(kind, name, controller)].metrics.rmse
+                ff = feedforward(target, law, ref, controller, ctl.valve_tau)
+                for case, cases in perturbed:
+                    shaken = [p if name == "proportional" else on_off(p, config) for p in cases]
+                    rmse = [_rmse(p, gains[controller], ff, ref, seed, controller)
+                            for p in shaken]  # fmt: skip
+                    spreads[kind].append(Spread(case, nominal, np.array(rmse), controller, name))
     gain = float(np.squeeze(linear.dcgain()))
-    return TaskResult(task, plant.unit, plant.resolution, plant, tuning, gain, runs, spreads)
+    return TaskResult(task, plant.unit, plant.resolution, plant, tuning, gain, runs, spreads,
+                      integral)  # fmt: skip
 
 
 def run_study(config: ControlConfig, model, progress: Callable[[str], None] | None = None) -> Study:

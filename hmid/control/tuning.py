@@ -38,7 +38,8 @@ class TuningError(HmidError, ValueError):
 
 @dataclass(frozen=True)
 class Tuning:
-    """The gains the rule chose and what python-control says of the loop."""
+    """The gains the rule chose and what python-control says of the loop (a PD's, or with
+    ``ki`` a PID's)."""
 
     kp: float
     kd: float
@@ -50,6 +51,7 @@ class Tuning:
     poles: np.ndarray  # of the discrete closed loop (z-plane)
     resonance_hz: float  # the plant's least-damped oscillatory mode (NaN: none)
     resonance_damping: float  # its damping ratio
+    ki: float = 0.0  # the integral gain (0: a PD; :mod:`hmid.control.integral`'s rule sets it)
 
     @property
     def stable(self) -> bool:

@@ -43,6 +43,19 @@ def test_the_shipped_config_runs_and_writes_its_report(identified, tmp_path, cap
     assert (proportional["reduction"] >= 0.5).all()
     metrics = json.loads((run_dir / "metrics.json").read_text())
     assert metrics["targets"]["reduction_met_proportional"] is True
+    # FF+PID beside FF+PD, each shaken on both valve kinds
+    robust = pd.read_csv(run_dir / "tables" / "robustness.csv")
+    assert set(robust["controller"]) == {"FF+PD", "FF+PID"}
+    assert set(robust["valves"]) == {"proportional", "on/off (switching)"}
+    assert len(robust) == 2 * 2 * 2 * 2 * 2  # tasks x references x valves x controllers x cases
+    assert set(metrics["targets"]["robustness_met_by"]) == {
+        f"{c}, {v}" for c in ("FF+PD", "FF+PID") for v in ("proportional", "on/off (switching)")
+    }
+    tuning = pd.read_csv(run_dir / "tables" / "tuning.csv")
+    pid = tuning[tuning["controller"] == "FF+PID"]
+    assert len(pid) == 2 * 2 and (pid["ki (Pa/unit/s)"] != 0).all() and pid["stable"].all()
+    # the steps by direction: a travel time each way, per valves and controller
+    assert not (run_dir / "tables" / "directions.csv").read_text().strip()  # no step_down here
     assert {p.name for p in (run_dir / "figures").iterdir()} >= {"position_proportional.png"}
     assert "report:" in capsys.readouterr().out
 
@@ -52,6 +65,13 @@ def test_a_missing_model_run_says_to_run_the_demo_first(tmp_path, capsys):
     assert main(["control", str(config), "--results", str(tmp_path / "r")]) == 2
     err = capsys.readouterr().err.strip()
     assert "make demo" in err and len(err.splitlines()) == 1
+
+
+def test_the_controllers_must_include_the_comparison(tmp_path, capsys):
+    config = _config(tmp_path, controllers=["PD", "FF+PID"])
+    assert main(["control", str(config), "--results", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "controllers" in err and len(err.splitlines()) == 1
 
 
 def test_an_unknown_key_is_named(tmp_path, capsys):
@@ -95,6 +115,16 @@ def test_the_shipped_ankle_config_runs_and_writes_its_report(fibre_models, tmp_p
     assert set(robust["plant"]) == {"posterior (2 draws)", "build scatter (2 draws)", "stribeck"}
     tracking = pd.read_csv(run_dir / "tables" / "tracking.csv")
     assert (tracking[tracking["valves"] != "proportional"]["switchings"] > 0).all()
+    assert set(tracking["controller"]) == {"PD", "FF+PD", "FF+PID"}
+    directions = pd.read_csv(run_dir / "tables" / "directions.csv")
+    assert len(directions) == 2 * 3  # valves x controllers
+    assert (directions["up: travel (s)"] > 0).all() and (directions["down: travel (s)"] > 0).all()
+    pd_rows = directions[directions["controller"] == "PD"]
+    assert set(pd_rows["valves"]) == {"proportional", "on/off (switching)"}
+    markdown = (run_dir / "tables" / "directions.md").read_text()  # the README's table
+    assert markdown.startswith("angle:") and "travel, plantarflexion" in markdown
+    assert markdown.count("\n| ") == 2 * 3 + 1  # header and a row per valves and controller
+    assert (run_dir / "tables" / "robustness.md").is_file()
     assert {p.name for p in (run_dir / "figures").iterdir()} >= {"angle_proportional.png"}
 
 
