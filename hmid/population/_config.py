@@ -64,12 +64,14 @@ class SimulateSection(_Frozen):
 class LawSection(_Frozen):
     """Priors of the hierarchical model: exponents centred on the physically expected values
     with ``exponent_sd``; log-intercepts N(0, ``intercept_sd``) around the population's typical
-    value; the muscle-to-muscle scatter half-normal with ``scatter_sd`` (log scale; F0's, which
-    is additive, in units of its typical value)."""
+    value; the muscle-to-muscle scatter log-normal about ``scatter_typical`` with
+    ``scatter_log_sd`` (log scale; F0's, which is additive, in units of its typical value; why
+    this prior: :mod:`hmid.population._model`)."""
 
     exponent_sd: Annotated[float, Field(gt=0)] = 0.5
     intercept_sd: Annotated[float, Field(gt=0)] = 3.0
-    scatter_sd: Annotated[float, Field(gt=0)] = 0.3
+    scatter_typical: Annotated[float, Field(gt=0)] = 0.1
+    scatter_log_sd: Annotated[float, Field(gt=0)] = 1.0
     interval: Annotated[float, Field(gt=0.5, lt=1)] = 0.90
 
 

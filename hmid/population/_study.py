@@ -56,7 +56,8 @@ def read_pool(config: PopulationConfig, identified: tuple[Identified, ...]) -> P
 
 def settings(config: PopulationConfig) -> tuple[Priors, Sampler]:
     """The law's priors and the NUTS settings the config declares (seeded by the study's)."""
-    priors = Priors(config.law.exponent_sd, config.law.intercept_sd, config.law.scatter_sd)
+    law = config.law
+    priors = Priors(law.exponent_sd, law.intercept_sd, law.scatter_typical, law.scatter_log_sd)
     s = config.sampler
     return priors, Sampler(s.chains, s.warmup, s.draws, s.target_accept, config.seed)
 

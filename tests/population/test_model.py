@@ -45,16 +45,20 @@ SPECS = tuple(
 )
 
 
-@pytest.fixture(scope="module")
-def law_fit():
-    """Muscles known exactly (their true parameters, no measurement noise) with a small
-    manufacturing scatter."""
-    scatter = Scatter(A_eff=0.02, k1=0.02, k3=0.02, k2=0.02, tau=0.02, F0=0.01)
-    fits = tuple(
+def _law_fits(scatter: Scatter) -> tuple[MuscleFit, ...]:
+    """Muscles known exactly (their true parameters, no measurement noise) with a
+    manufacturing ``scatter``."""
+    return tuple(
         _fit_on_truth(f"m{i}", np.array([getattr(s.draw(scatter, i), p) for p in PARAMETERS]))
         for i, s in enumerate(SPECS)
     )
-    return fit_population(SPECS, fits, sampler=FAST)
+
+
+@pytest.fixture(scope="module")
+def law_fit():
+    """A population known exactly, with a small scatter."""
+    scatter = Scatter(A_eff=0.02, k1=0.02, k3=0.02, k2=0.02, tau=0.02, F0=0.01)
+    return fit_population(SPECS, _law_fits(scatter), sampler=FAST)
 
 
 def test_the_scaling_law_is_recovered_on_noise_free_muscles(law_fit):
@@ -105,3 +109,36 @@ def test_the_predicted_model_file_loads_and_predicts(tmp_path, template, law_fit
     truth = json.loads((folder / "dyn-cycles.truth.json").read_text())["rig"]["muscle"]
     exact = sls_document(template, "truth", np.array([truth[p] for p in PARAMETERS]))
     assert held_out_rmse(exact, read_dynamic_logs(folder), 0.3) < 0.1  # N: the sensor noise
+
+
+def test_a_new_muscles_predictive_is_near_the_regressions_own_t_interval():
+    """Calibration: with the muscles known exactly and an 8 % scatter (the shipped k1's), a new
+    build's predictive for a log-parameter holds about 90 % of its mass inside the classical
+    prediction interval of the law's regression (Student-t with n - 4 degrees of freedom, which
+    covers 90 % at any scatter). A prior flat in the scatter, as the former half-normal(0.3),
+    gives a t with a degree of freedom fewer: ~0.86 of its mass inside (analytically)."""
+    from scipy import stats
+
+    from hmid.population._law import feature_matrix, spec_features
+
+    fits = _law_fits(Scatter(A_eff=0.08, k1=0.08, k3=0.08, k2=0.08, tau=0.08, F0=0.01))
+    fit = fit_population(SPECS, fits, sampler=Sampler(chains=1, warmup=300, draws=1000, seed=5))
+    new = MuscleSpec(length=0.09, inner_diameter=0.019, outer_diameter=0.023, prestress=1e4)
+    X = np.c_[np.ones(len(SPECS)), feature_matrix(SPECS)]
+    x0 = np.r_[1.0, spec_features(new)]
+    h = x0 @ np.linalg.inv(X.T @ X) @ x0
+    nu = len(SPECS) - X.shape[1]
+    law = fit.law_log(new) + np.log(fit.scale)
+    inside = []
+    for k, p in enumerate(PARAMETERS):
+        if p == "F0":  # additive scatter: not a log-normal regression
+            continue
+        y = np.log([f.mean[k] for f in fits])
+        beta, *_ = np.linalg.lstsq(X, y, rcond=None)
+        s = np.sqrt(np.sum((y - X @ beta) ** 2) / nu)
+        half = stats.t.ppf(0.95, nu) * s * np.sqrt(1 + h)
+        lo, hi = x0 @ beta - half, x0 @ beta + half
+        sd = fit.scatter[:, k]
+        mass = stats.norm.cdf((hi - law[:, k]) / sd) - stats.norm.cdf((lo - law[:, k]) / sd)
+        inside.append(mass.mean())
+    assert 0.87 <= np.mean(inside) <= 0.93, np.round(inside, 3)
