@@ -56,8 +56,10 @@ STAGES = (
         lambda c: {"loop": c.loop.model_dump(mode="json") if c.loop else None},
     ),
     Stage("export", s.export, ("split", "fit", "friction"), _section("denoise", "fit")),
-    Stage("freerun", s.freerun, ("split", "fit", "export")),
     Stage("rows", s.rows, ("split",), store=False),
+    # the free runs' rows alone: the signals are let go before the free runs import JAX
+    Stage("freerun_blocks", s.freerun_blocks, ("split", "export"), store=False),
+    Stage("freerun", s.freerun, ("freerun_blocks", "fit", "export")),
 )
 
 

@@ -151,7 +151,7 @@ def _known(
     free_fall_law: Callable[[np.ndarray], np.ndarray] | None,
 ) -> np.ndarray:
     """The sum of the rig's known terms, the free-fall friction smoothed as the signals are."""
-    known = np.zeros(len(signals))
+    known = None
     for term in rig.known:
         if isinstance(term, CoulombTerm) and term.source == "free_fall":
             if free_fall_law is None:
@@ -161,14 +161,17 @@ def _known(
             def law_on(rows: slice, v: np.ndarray = v) -> np.ndarray:
                 return free_fall_law(v[rows])
 
-            law = signals.smooth_of(law_on)
-            law *= term.sign
-            known += law
-            del law
+            part = signals.smooth_of(law_on)
+            part *= term.sign
         else:
-            value = rig.term_value(term, units)
-            known += value * term.columns(signals, None).values[:, 0]
-    return known
+            part = rig.term_value(term, units) * term.columns(signals, None).values[:, 0]
+        if known is None:  # the first term is the sum so far (a long log's is not held twice)
+            known = part
+            known += 0.0  # as a sum from zero: -0.0 becomes 0.0
+        else:
+            known += part
+        del part
+    return np.zeros(len(signals)) if known is None else known
 
 
 def prepare(

@@ -252,7 +252,7 @@ class Signals:
             return np.asarray(values_of(slice(0, len(self))), dtype=float)
         out = np.empty(len(self))
         for start, stop, local in self._local_smoothers():
-            out[start:stop] = smoothed_by_blocks(local, stop - start, _shifted(values_of, start))
+            smoothed_by_blocks(local, stop - start, _shifted(values_of, start), out=out[start:stop])
         return out
 
     def _local_smoothers(self) -> list:

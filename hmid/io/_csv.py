@@ -8,11 +8,13 @@ that fixes it; pandas' own wording never escapes.
 
 from __future__ import annotations
 
+import codecs
 import io
 import re
 import warnings
 from collections.abc import Callable, Iterator
 from itertools import islice
+from typing import AnyStr
 
 import pandas as pd
 
@@ -208,13 +210,37 @@ def _undecodable(data: bytes, encoding: str) -> str:
 def _content_lines(data: bytes, columns: ColumnMap) -> Iterator[tuple[int, str]]:
     """(1-based line number, text) of the lines pandas reads: after ``skip_rows``, not blank,
     not comments. Quoted fields spanning lines are not accounted for."""
-    text = data.decode(columns.encoding, errors="replace")
-    for number, line in enumerate(_NEWLINES.split(text), start=1):
+    for number, line in enumerate(_lines(data, columns.encoding), start=1):
         if number <= columns.skip_rows or not line.strip():
             continue
         if columns.comment and line.startswith(columns.comment):
             continue
         yield number, line
+
+
+#: Encodings whose line ends are the single bytes CR and LF, never part of another character
+_BYTE_LINE_ENDS = ("utf-8", "ascii", "iso8859-1", "cp1252")
+_NEWLINE_BYTES = re.compile(rb"\r\n|\r|\n")
+
+
+def _lines(data: bytes, encoding: str) -> Iterator[str]:
+    """The text's lines (split where :data:`_NEWLINES` matches), made as they are read and, in
+    an encoding of :data:`_BYTE_LINE_ENDS`, decoded one at a time: a long log's text is never
+    held whole, nor as a list of its lines."""
+    if codecs.lookup(encoding).name in _BYTE_LINE_ENDS:
+        for line in _split(data, _NEWLINE_BYTES):
+            yield line.decode(encoding, errors="replace")
+    else:
+        yield from _split(data.decode(encoding, errors="replace"), _NEWLINES)
+
+
+def _split(text: AnyStr, ends: re.Pattern[AnyStr]) -> Iterator[AnyStr]:
+    """``ends.split(text)``, one piece at a time."""
+    start = 0
+    for end in ends.finditer(text):
+        yield text[start : end.start()]
+        start = end.end()
+    yield text[start:]
 
 
 def _sniff(data: bytes, columns: ColumnMap) -> str:
@@ -246,18 +272,21 @@ def _sniff(data: bytes, columns: ColumnMap) -> str:
 def line_locator(read: Callable[[], bytes], columns: ColumnMap) -> RowLocator:
     """Describe a data row as ``"row N (line L)"``; the line map is built on first use only, from
     the text ``read()`` returns (so that a long log's bytes need not be held until then)."""
-    lines: list[int] = []
+    found: dict[int, int | None] = {}
 
     def locate(row: int) -> str:
-        if not lines:
-            lines.extend(_data_line_numbers(read(), columns))
-        line = f" (line {lines[row]})" if row < len(lines) else ""
+        if row not in found:
+            found[row] = _data_line_number(read(), columns, row)
+        line = "" if found[row] is None else f" (line {found[row]})"
         return f"row {row + 1}{line}"
 
     return locate
 
 
-def _data_line_numbers(data: bytes, columns: ColumnMap) -> list[int]:
-    """1-based file line of each data row."""
-    numbers = [number for number, _ in _content_lines(data, columns)]
-    return numbers[1:] if columns.header else numbers
+def _data_line_number(data: bytes, columns: ColumnMap, row: int) -> int | None:
+    """1-based file line of data row ``row`` (0-based; None past the last), the lines before it
+    read one at a time: no map of a long log's lines is made."""
+    numbers = (number for number, _ in _content_lines(data, columns))
+    if columns.header:
+        next(numbers, None)
+    return next(islice(numbers, row, None), None)

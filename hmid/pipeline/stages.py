@@ -10,6 +10,7 @@ import warnings
 from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -28,6 +29,9 @@ from hmid.pipeline.fits import FIT_ERRORS, Fits, fit_or_fail
 from hmid.split import validation_masks
 from hmid.summary import LogSummary, summarize
 from hmid.workers import Tasks, beside
+
+if TYPE_CHECKING:
+    from hmid.portable.freerun import FreeRunRows
 
 
 @dataclass(frozen=True)
@@ -432,14 +436,38 @@ def _export_rows(signals: Signals) -> Signals:
     return Signals(head, signals.units, signals.channels, signals.position, signals.smoother)
 
 
-def freerun(config: ExperimentConfig, split: Split, fit: list[Fitted], export: dict) -> dict:
+@dataclass(frozen=True)
+class FreeRunBlocks:
+    """What the free runs read (:func:`freerun_blocks`): the rows of their blocks alone, and
+    what the time budget left out, in words."""
+
+    rows: FreeRunRows
+    note: str
+
+
+def freerun_blocks(config: ExperimentConfig, split: Split, export: dict) -> FreeRunBlocks:
+    """The held-out blocks the exported models run free over (within the time budget) and the
+    training blocks their bands are calibrated on, as rows of their own with every model's
+    memory states there: a long log's signals are let go before the free runs import JAX."""
+    from hmid.portable import Model
+    from hmid.portable.freerun import blocks, held_rows, within_budget
+
+    signals = split.signals
+    spans, note = within_budget(blocks(signals), signals.dt)
+    training = blocks(signals, "train")  # the band's disturbance is calibrated there
+    models = [Model(document) for document in export.values() if not isinstance(document, str)]
+    return FreeRunBlocks(held_rows(signals, spans, training, models), note)
+
+
+def freerun(
+    config: ExperimentConfig, freerun_blocks: FreeRunBlocks, fit: list[Fitted], export: dict
+) -> dict:
     """Every exported model run free over the held-out blocks (:mod:`hmid.portable.freerun`),
     by name; a model that cannot run free says why in one line."""
     from hmid.portable import Model
-    from hmid.portable.freerun import FreeRun, blocks, simulate_signals, within_budget
+    from hmid.portable.freerun import FreeRun, simulate_signals
 
-    spans, note = within_budget(blocks(split.signals), split.signals.dt)
-    training = blocks(split.signals, "train")  # the band's disturbance is calibrated there
+    held = freerun_blocks.rows
     out: dict = {}
     # in this process: models of one shape share one compiled program, and compiling it (seconds)
     # costs more than running every model (tens of milliseconds each)
@@ -453,10 +481,10 @@ def freerun(config: ExperimentConfig, split: Split, fit: list[Fitted], export: d
         draws = posterior_draws() if posterior_draws else None
         out[name] = None  # keeps the models' order
         run = partial(simulate_signals, draws=FREE_RUN_DRAWS, level=FREE_RUN_LEVEL,
-                      seed=config.seed, calibration=training)  # fmt: skip
-        tasks.submit(run, Model(document, draws=draws), split.signals, spans)
+                      seed=config.seed, held=held)  # fmt: skip
+        tasks.submit(run, Model(document, draws=draws), held.signals, held.spans)
     for run in tasks.results():
-        out[run.model] = replace(run.thinned(), note=note)  # whole runs' scores; figure samples
+        out[run.model] = replace(run.thinned(), note=freerun_blocks.note)  # whole runs' scores
     return out
 
 

@@ -27,9 +27,12 @@ def smoothed_span(local: Local, n: int, values_of, lo: int, hi: int) -> np.ndarr
     return smooth(values_of(slice(a, b)))[lo - a : hi - a]
 
 
-def smoothed_by_blocks(local: Local, n: int, values_of, block: int = BLOCK) -> np.ndarray:
-    """The whole smoothed signal (see :func:`smoothed_span`), one block at a time."""
-    out = np.empty(n)
+def smoothed_by_blocks(
+    local: Local, n: int, values_of, block: int = BLOCK, out: np.ndarray | None = None
+) -> np.ndarray:
+    """The whole smoothed signal (see :func:`smoothed_span`), one block at a time; written into
+    ``out`` (``n`` samples) where given."""
+    out = np.empty(n) if out is None else out
     for lo in range(0, n, block):
         out[lo : lo + block] = smoothed_span(local, n, values_of, lo, min(lo + block, n))
     return out

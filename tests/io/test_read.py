@@ -338,3 +338,13 @@ def test_a_ragged_headerless_line_is_named_by_its_file_line(tmp_path):
     assert read_error(path, positional) == (
         "line 6 has 4 fields where the first row has 3; check the delimiter/quoting of that line"
     )
+
+
+@pytest.mark.parametrize("encoding", ["utf-8", "cp1252", "utf-16"])
+def test_a_logs_lines_are_read_one_at_a_time_as_a_split_of_its_whole_text(encoding):
+    """A bad row's line is found without the text held whole where the line ends are single
+    bytes, and the same lines either way (CRLF, CR and LF ends, a trailing end, accents)."""
+    from hmid.io._csv import _NEWLINES, _lines
+
+    text = "t,x\r\n1,é\r2,3\n\n# note\r\n4,5\n"
+    assert list(_lines(text.encode(encoding), encoding)) == _NEWLINES.split(text)

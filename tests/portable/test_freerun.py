@@ -206,3 +206,39 @@ def test_the_regularisation_is_as_small_as_a_sample_step_integrates_stably():
     sim = simulator(model)
     fixed = sim.positions(t, {"u": u}, 0.0, 0.0, None, [sim.coefficients()], np.zeros((1, len(t))))
     assert np.max(np.abs(fixed[0] - run.x)) < 1e-3 * np.ptp(run.x)
+
+
+def test_the_free_runs_on_their_rows_alone_equal_those_on_the_whole_signals():
+    """What the pipeline runs (:func:`held_rows`: the blocks' and the band's calibration rows as
+    signals of their own, a memory arm's states found on the whole log) gives the same runs,
+    bands and calibration as the whole signals, to the bit."""
+    from hmid.portable.freerun import held_rows
+
+    memory = {"kind": "memory", "name": "k2", "channel": "x", "tau": 0.05}
+    model = _model([MASS, SPRING, DAMPER, memory], [0.75, 200.0, 5.0, 50.0])
+    model.document["coefficients"]["covariance"] = np.diag([1e-4, 1.0, 1e-2, 1.0]).tolist()
+    t = np.linspace(0.0, 8.0, 8001)
+    frames = []
+    for name, phase in (("a", 0.0), ("b", 1.0)):
+        x = 2e-3 * np.sin(2 * np.pi * 0.7 * t + phase)
+        held_out = (t > 3.0) & (t < 4.5) | (t > 6.5)
+        frames.append(pd.DataFrame({
+            "log": name, "t": t, "x": x, "u": 200.0 * x, "v": np.gradient(x, t),
+            "explained": 200.0 * x, "target": 200.0 * x, "train": ~held_out,
+            "validation": held_out,
+        }))  # fmt: skip
+    units = {"x": "m", "u": "N", "v": "m/s", "explained": "N", "target": "N"}
+    signals = Signals.from_frame(pd.concat(frames), units, position="x")
+    spans, training = blocks(signals), blocks(signals, "train")
+    options = {"draws": 5, "seed": 2}
+    whole = simulate_signals(model, signals, spans, calibration=training, **options)
+    held = held_rows(signals, spans, training, [model])
+    assert len(held.signals) < len(signals) and held.memory["m"]
+    alone = simulate_signals(model, held.signals, held.spans, held=held, **options)
+    assert whole.calibration is not None and whole.runs[0].band is not None
+    assert whole.band == alone.band and whole.calibration == alone.calibration
+    assert len(whole.runs) == len(alone.runs) == len(spans)
+    for one, other in zip(whole.runs, alone.runs, strict=True):
+        assert one.log == other.log and one.diverged_at == other.diverged_at
+        for field in ("t", "x_measured", "x_simulated", "explained_measured", "band"):
+            np.testing.assert_array_equal(getattr(one, field), getattr(other, field))

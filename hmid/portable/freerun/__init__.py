@@ -13,7 +13,16 @@ blocks.
 from hmid.portable.freerun.band import Calibration, calibrate, coefficient_draws, disturbances
 from hmid.portable.freerun.equation import Equation, NotSimulable, equation
 from hmid.portable.freerun.integrator import FreeTrajectory, Simulator, simulator
-from hmid.portable.freerun.run import blocks, chunks, free_run, simulate_signals, within_budget
+from hmid.portable.freerun.run import (
+    FreeRunRows,
+    blocks,
+    calibration_pieces,
+    chunks,
+    free_run,
+    held_rows,
+    simulate_signals,
+    within_budget,
+)
 from hmid.portable.freerun.scores import BlockRun, FreeRun
 
 __all__ = [
@@ -21,16 +30,19 @@ __all__ = [
     "Calibration",
     "Equation",
     "FreeRun",
+    "FreeRunRows",
     "FreeTrajectory",
     "NotSimulable",
     "Simulator",
     "blocks",
     "calibrate",
+    "calibration_pieces",
     "chunks",
     "coefficient_draws",
     "disturbances",
     "equation",
     "free_run",
+    "held_rows",
     "simulate_signals",
     "simulator",
     "within_budget",

@@ -9,7 +9,8 @@ measured inputs alone.
 
 from __future__ import annotations
 
-from dataclasses import replace
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -88,16 +89,22 @@ def chunks(spans: list[np.ndarray], length: int) -> list[np.ndarray]:
 def simulate_signals(
     model, signals, spans, *, v0: float | None = None, draws: int = 0, level: float = 0.9,
     seed: int = 0, calibration: list[np.ndarray] | None = None,
+    held: FreeRunRows | None = None,
 ) -> FreeRun:  # fmt: skip
     """Free runs of ``model`` on ``signals`` over each span of rows (see :func:`blocks`); with
     ``draws``, a ``level`` band of the position from as many draws of the coefficients and of a
-    disturbance force (:mod:`~hmid.portable.freerun.band`), whose scale is calibrated on the
-    ``calibration`` spans (the training blocks; without them, the training residual's scale)."""
+    disturbance (a force or a drift: :mod:`~hmid.portable.freerun.band`), whose shape and scale
+    are chosen on the ``calibration`` spans (the training blocks; without them, a force at the
+    training residual's scale).
+    ``held`` (:func:`held_rows`) instead of ``signals``, ``spans`` and ``calibration``: the
+    same runs on the rows they read alone."""
+    if held is not None:
+        signals, spans = held.signals, held.spans
     try:
         sim = simulator(model, v0)
     except NotSimulable as err:
         return FreeRun(model.name, (), str(err))
-    memory_rows = _memory_states(model, signals)
+    memory_rows = _memory_states(model, signals) if held is None else held.memory[model.name]
     band, sampled, scale, calibrated, stride = "", None, 1.0, None, 1
     pieces: list[np.ndarray] = []
     if draws and spans:
@@ -105,10 +112,7 @@ def simulate_signals(
         band = "posterior draws" if model.posterior is not None else "coefficient covariance"
         if sampled is None:
             sampled, band = [sim.coefficients()] * draws, "no coefficient uncertainty in the file"
-        if calibration:
-            length = max(len(rows) for rows in spans)
-            total = sum(len(rows) for rows in spans)
-            pieces = _spread(chunks(calibration, length), CALIBRATION_SHARE * total)
+        pieces = calibration_pieces(spans, calibration) if held is None else held.pieces
     # one padded size for every block: one compiled program (and one trace) per model shape
     size = padded_size(max(len(rows) for rows in (*spans, *pieces))) if spans else None
     if sampled:
@@ -169,6 +173,46 @@ def _stride(sim: Simulator, start: Start, draws: int, size: int | None) -> int:
                           size=size)[0]  # fmt: skip
     gap = np.max(np.abs(fixed - exact)) if np.all(np.isfinite(fixed)) else np.inf
     return stride if gap <= 0.01 * (np.ptp(exact) or 1e-3) else 1
+
+
+def calibration_pieces(spans: list[np.ndarray], calibration) -> list[np.ndarray]:
+    """The training rows a band over ``spans`` is calibrated on: the ``calibration`` spans cut
+    as long as the longest of ``spans`` and spread to at most :data:`CALIBRATION_SHARE` times
+    their rows (none without spans or calibration)."""
+    if not spans or not calibration:
+        return []
+    length = max(len(rows) for rows in spans)
+    total = sum(len(rows) for rows in spans)
+    return _spread(chunks(calibration, length), CALIBRATION_SHARE * total)
+
+
+@dataclass(frozen=True)
+class FreeRunRows:
+    """The rows free runs read, as signals of their own: a long log's whole signals need not be
+    held while they run (they import and compile JAX). ``spans`` (the blocks to run) and
+    ``pieces`` (the training rows the band is calibrated on) count rows of ``signals``;
+    ``memory`` holds each model's memory states on those rows, found on the whole log (an
+    arm's state is its response to all the motion before)."""
+
+    signals: object  # hmid.balance.Signals
+    spans: list[np.ndarray]
+    pieces: list[np.ndarray]
+    memory: Mapping[str, list[np.ndarray]] = field(default_factory=dict)
+
+
+def held_rows(signals, spans, calibration=None, models=()) -> FreeRunRows:
+    """The rows of ``signals`` that free runs over ``spans`` (with a band calibrated on the
+    ``calibration`` spans) read, for each of ``models``: :func:`simulate_signals` gives the same
+    runs with ``rows=`` as with the whole signals."""
+    pieces = calibration_pieces(spans, calibration)
+    parts = [*spans, *pieces]
+    index = np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=int)
+    frame = signals.frame.iloc[index].reset_index(drop=True)
+    own = type(signals)(frame, signals.units, signals.channels, signals.position,
+                        signals.smoother)  # fmt: skip
+    memory = {m.name: [state[index] for state in _memory_states(m, signals)] for m in models}
+    return FreeRunRows(own, [np.searchsorted(index, rows) for rows in spans],
+                       [np.searchsorted(index, rows) for rows in pieces], memory)  # fmt: skip
 
 
 def _spread(pieces: list[np.ndarray], samples: float) -> list[np.ndarray]:
