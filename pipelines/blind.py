@@ -32,6 +32,7 @@ from hmid.blind import (
     load_suite,
     outcome,
     plan_cases,
+    suite_counts,
     suite_table,
 )
 from hmid.errors import ConfigError, HmidWarning
@@ -127,14 +128,16 @@ def _run_cases(suite, dataset, experiment, source, folder, workers, progress):
     order = {case.case_id: i for i, case in enumerate(cases)}
     outcomes = pd.DataFrame(rows).sort_values("case_id", key=lambda c: c.map(order))
     table, targets = suite_table(outcomes), check_targets(outcomes, suite)
+    counts = suite_counts(outcomes)
     outcomes.to_csv(run_dir / "outcomes.csv", index=False)
     table.to_csv(run_dir / "blind.csv", index=False)
     targets.to_csv(run_dir / "targets.csv", index=False)
-    write_text(run_dir / "blind.md", _markdown(suite, table, targets))
+    counts.to_csv(run_dir / "counts.csv", index=False)
+    write_text(run_dir / "blind.md", _markdown(suite, table, targets, counts))
     return table, targets
 
 
-def _markdown(suite, table: pd.DataFrame, targets: pd.DataFrame) -> str:
+def _markdown(suite, table: pd.DataFrame, targets: pd.DataFrame, counts: pd.DataFrame) -> str:
     return (
         f"# Blind suite {suite.name}\n\n"
         f"{suite.seeds} seeds per effect and strength, {suite.clean_seeds} clean controls. "
@@ -143,5 +146,6 @@ def _markdown(suite, table: pd.DataFrame, targets: pd.DataFrame) -> str:
         "alone or in a set the loop calls indistinguishable on the data; 'confidently wrong' is "
         "the share whose first effect is a single unexpected name (any name on clean data or for "
         "an effect outside the library).\n\n"
-        f"{markdown_table(table)}\n\n## Pass marks\n\n{markdown_table(targets)}\n"
+        f"{markdown_table(table)}\n\n## Pass marks\n\n{markdown_table(targets)}\n\n"
+        f"## Counts over every run\n\n{markdown_table(counts)}\n"
     )

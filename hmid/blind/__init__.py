@@ -10,7 +10,7 @@ from hmid.blind.cases import (
     plan_cases,
 )
 from hmid.blind.config import BlindSuite, load_suite
-from hmid.blind.table import check_targets, suite_table
+from hmid.blind.table import check_targets, suite_counts, suite_table
 
 __all__ = [
     "CLEAN",
@@ -23,5 +23,6 @@ __all__ = [
     "load_suite",
     "outcome",
     "plan_cases",
+    "suite_counts",
     "suite_table",
 ]

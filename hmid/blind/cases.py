@@ -144,6 +144,16 @@ def outcome(case: Case, result) -> dict[str, Any]:
         "added, then worse": any(n.startswith("added ") for n in result.notes),
         # every printed interval contains its estimate: those that do not, by table
         "intervals without their estimate": "; ".join(_outside(result)),
+        # a second or later addition that is not expected: each case has one effect at most
+        "spurious second effect": any(name not in expect for name in added[1:]),
+        # the declared terms found wrong (hmid.loop.declared.decide), and the unexpected ones
+        "declared found wrong": " + ".join(f.parameter for f in result.findings),
+        # judged only where the truth of every declared term is known (None: an effect's data)
+        "declared, falsely found": (
+            any(f.parameter not in expect for f in result.findings)
+            if case.effect == CLEAN or case.declare
+            else None
+        ),
     }
     if case.compare and added and added[0] in expect:
         table = result.effects[0].parameters.set_index("parameter")

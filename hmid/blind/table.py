@@ -34,6 +34,8 @@ def suite_table(outcomes: pd.DataFrame) -> pd.DataFrame:
                 "confidently wrong": group["confidently wrong"].mean(),
                 "any effect added": added.mean(),
                 "added, then held-out worse": _share(group, "added, then worse"),
+                "spurious second effect": _share(group, "spurious second effect"),
+                "declared falsely found": _share(group, "declared, falsely found"),
                 f"'{REMAINS}'": (group["verdict"] == REMAINS).mean(),
                 "correct": group["correct"].mean(),
                 "RMSE before [N]": group["rmse before [N]"].median(),
@@ -68,6 +70,30 @@ def _recovery(group: pd.DataFrame) -> dict:
     }
 
 
+def suite_counts(outcomes: pd.DataFrame) -> pd.DataFrame:
+    """Counts over every run of the suite: additions after which the held-out error rose,
+    spurious second effects, declared terms found wrong where none was, runs with an interval
+    that excludes its estimate (each of ``runs``: the runs it can happen in)."""
+    added = outcomes.get("added", pd.Series("", outcomes.index)).fillna("") != ""
+    judged = outcomes.get("declared, falsely found", pd.Series(None, outcomes.index)).notna()
+    outside = outcomes.get("intervals without their estimate", pd.Series("", outcomes.index))
+    rows = [
+        ("added, then held-out worse", _count(outcomes, "added, then worse"), added.sum()),
+        ("a spurious second effect added", _count(outcomes, "spurious second effect"),
+         added.sum()),
+        ("a declared term found wrong where none is (clean and declared cases)",
+         _count(outcomes[judged], "declared, falsely found"), judged.sum()),
+        ("an interval without its estimate", (outside.fillna("").astype(str) != "").sum(),
+         len(outcomes)),
+    ]  # fmt: skip
+    return pd.DataFrame([(w, int(c), int(n)) for w, c, n in rows],
+                        columns=["what", "runs", "of runs"])  # fmt: skip
+
+
+def _count(group: pd.DataFrame, column: str) -> int:
+    return round(_share(group, column) * len(group)) if len(group) else 0
+
+
 def check_targets(outcomes: pd.DataFrame, suite: BlindSuite) -> pd.DataFrame:
     """Each pass mark with the measured rate; ``met`` says whether it holds."""
     t = suite.targets
@@ -95,11 +121,20 @@ def check_targets(outcomes: pd.DataFrame, suite: BlindSuite) -> pd.DataFrame:
     if not clean.empty:
         rate = (clean["added"].fillna("") != "").mean()
         rows.append(("clean: an effect added", rate, "<=", t.false_additions))
+        rate = _share(clean, "declared, falsely found")
+        rows.append(("clean: a declared term found wrong", rate, "<=", t.false_additions))
     moderate = outcomes[(outcomes["effect"] != CLEAN) & (outcomes["strength"] == t.strength)]
     if not moderate.empty:
         rate = moderate["confidently wrong"].mean()
         label = f"every effect ({t.strength}): a confidently wrong single name"
         rows.append((label, rate, "<=", t.confidently_wrong))
+        rate = _share(moderate, "spurious second effect")
+        label = f"every effect ({t.strength}): a spurious second effect added"
+        rows.append((label, rate, "<=", t.false_additions))
+    if "intervals without their estimate" in outcomes:
+        outside = outcomes["intervals without their estimate"].fillna("").astype(str) != ""
+        rows.append(("every run: an interval without its estimate (runs)", int(outside.sum()),
+                     "<=", 0))  # fmt: skip
     frame = pd.DataFrame(rows, columns=["target", "measured", "rule", "mark"])
     frame["met"] = [
         m >= k if r == ">=" else m <= k

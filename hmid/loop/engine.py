@@ -23,7 +23,16 @@ from hmid.loop.candidates import ELASTIC, STIFFNESS, Friction, Setting, level, m
 from hmid.loop.config import LoopSpec
 from hmid.loop.confounds import rivals, separating
 from hmid.loop.decision import Decision
-from hmid.loop.declared import Corrections, known_values, motion_finding, testable, value_findings
+from hmid.loop.declared import (
+    LEVEL,
+    Corrections,
+    decide,
+    known_values,
+    level_test,
+    motion_test,
+    testable,
+    value_tests,
+)
 from hmid.loop.diagnostics import pattern_scan
 from hmid.loop.parallel import screen_round
 from hmid.loop.result import Alternative, LoopResult, added_effect, finish, own_parameters
@@ -113,7 +122,8 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
     current = start = profile(structure, signals, step=PROFILE_STEP)
     # the rig's known values are hypotheses: a correction found is kept in the base, so that
     # no candidate can be credited with it
-    start, findings = _declared(rig, base, start, signals, held, setting, spec)
+    level_known = setting.known_level if refit is not None else None
+    start, findings = _declared(rig, base, start, signals, held, setting, spec, level_known)
     current = start
     folds = Folds.of(signals, spec.folds, spec.block_s)
     # the same blocks dealt by log: what a split that holds out whole logs asks of an addition
@@ -163,8 +173,6 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
     clock.lap(part)
     result = finish(spec, signals, base, start, current, effects, decisions, held, steps,
                     held_out="logs" if across_logs else "rows",
-                    known_level=setting.known_level if refit is not None else None,
-                    known_se=setting.known_se,
                     fitted_level=setting.fitted_level if refit is not None else None,
                     findings=findings)  # fmt: skip
     clock.lap("diagnostics and verdict")
@@ -186,22 +194,39 @@ def _as_final(effect, final):
     return replace(effect, parameters=table)
 
 
-def _declared(rig, base: LoopBase, start: StructureFit, signals, held, setting, spec):
+def _declared(rig, base: LoopBase, start: StructureFit, signals, held, setting, spec,
+              level_known: str | None):  # fmt: skip
     """The base with the corrections of the rig's known values where any is found (else
-    ``start`` itself), and the findings: those corrections and the motion equation's mass."""
-    if rig is None:
-        return start, ()
-    motion = motion_finding(rig, signals, spec.confidence)
-    found = (motion,) if motion is not None else ()
-    known = testable(known_values(rig, signals), start, signals)
-    if not known:
-        return start, found
-    trial = profile(start.structure.plus(Corrections(known)), signals, step=PROFILE_STEP)
+    ``start`` itself), and the findings: the declared Coulomb level's refit (dFc, where the base
+    refits ``level_known``), those corrections and the motion equation's mass, one family
+    (:func:`hmid.loop.declared.decide`: Holm over the run's tests at the loop's ``alpha``), all
+    tested on one fit: the base with every testable correction."""
+    motion = motion_test(rig, signals, spec.confidence) if rig is not None else None
+    known = testable(known_values(rig, signals), start, signals) if rig is not None else ()
+    unit = signals.unit("target")
     before = score(signals.target[held], base.prediction[held], "one-step")
-    values = value_findings(known, parameters(trial, signals, spec.confidence),
-                            setting.position, (before, trial.scores(held)),
-                            signals.unit("target"))  # fmt: skip
-    return (trial if values else start), (*values, *found)
+    trial = start
+    if known:
+        trial = profile(start.structure.plus(Corrections(known)), signals, step=PROFILE_STEP)
+    table = parameters(trial, signals, spec.confidence)
+    level = _level(table, level_known, unit, (before, trial.scores(held)), setting, spec)
+    values = value_tests(known, table, setting.position, (before, trial.scores(held)), unit)
+    found = decide([t for t in (level, *values, motion) if t is not None], spec.alpha)
+    corrected = any(f.parameter != LEVEL and f.refitted for f in found)
+    if known and not corrected and any(f.parameter == LEVEL for f in found):
+        # the level as the base without corrections has it (the family judged the joint fit)
+        said = _level(parameters(start, signals, spec.confidence), level_known, unit,
+                      (before, start.scores(held)), setting, spec)  # fmt: skip
+        found = tuple(replace(f, message=said.message + f.message[len(level.message):])
+                      if f.parameter == LEVEL else f for f in found)  # fmt: skip
+    return (trial if corrected else start), found
+
+
+def _level(table, known: str | None, unit: str, scores, setting, spec):
+    """The declared Coulomb level's test (None where the base does not refit it)."""
+    if known is None:
+        return None
+    return level_test(table, known, unit, scores, setting.known_se, spec.confidence)
 
 
 @dataclass(frozen=True)

@@ -223,25 +223,18 @@ def _residual_before(signals: Signals, prediction: np.ndarray) -> np.ndarray:
 
 
 def finish(spec, signals, base, start, current, effects, decisions, held, steps=(),
-           held_out: str = "rows", known_level: str | None = None,
-           fitted_level: str | None = None, known_se: float = 0.0,
+           held_out: str = "rows", fitted_level: str | None = None,
            findings: tuple[Finding, ...] = ()) -> LoopResult:  # fmt: skip
     """Diagnostics before (the base model's own residual) and after, and the verdict; the
     held-out error before and after on ``held``, the comparison's held-out rows (a lead's reach
     at segment ends is left out of the tests, not of the reported error; ``held_out`` says what
-    they are: "rows" or whole "logs"; ``known_level``: whence the declared Coulomb level the
-    base took as known, which its refit tests, and ``known_se`` its standard error;
-    ``fitted_level``: the declared level's name where the base fitted it, which its refit, the
-    same column, is called in the tables; ``findings``: the other declared terms found wrong,
-    the corrections of those in the balance already in ``start``)."""
+    they are: "rows" or whole "logs"; ``fitted_level``: the declared level's name where the
+    base fitted it, which its refit, the same column, is called in the tables; ``findings``:
+    the declared terms found wrong (:func:`hmid.loop.declared.decide`), the corrections of
+    those in the balance already in ``start``)."""
     residual_before = _residual_before(signals, base.prediction)
     before_scores = score(signals.target[held], base.prediction[held], "one-step")
     table = parameters(start, signals, spec.confidence)
-    if known_level is not None:
-        level = level_finding(table, known_level, signals.unit("target"),
-                              (before_scores, start.scores(held)), known_se,
-                              spec.confidence)  # fmt: skip
-        findings = (*((Finding("dFc", level),) if level else ()), *findings)
     refitted = [f.parameter for f in findings if f.refitted]
     before = _diagnose(spec, signals, residual_before)
     after, current_residual = before, residual_before  # nothing added: after is before
@@ -316,35 +309,6 @@ def _rename_level(table: pd.DataFrame, final: pd.DataFrame, level: str, base: st
     table["parameter"] = table["parameter"].replace(rename)
     ours = final["part"] == base
     final.loc[ours, "parameter"] = final.loc[ours, "parameter"].replace(rename)
-
-
-def level_finding(table: pd.DataFrame, known: str, unit: str, scores, known_se: float = 0.0,
-                  confidence: float = 0.95) -> str | None:  # fmt: skip
-    """The declared Coulomb level is a hypothesis: where the base's refit of it (dFc) differs
-    from zero beyond the uncertainty of both (its interval's half-width and the known level's
-    ``known_se``, combined in quadrature), a finding of its own, with what could cause it (an
-    honest set: these data cannot tell the causes apart) and what the refit alone did to the
-    held-out error (never credited to a candidate)."""
-    from scipy import stats
-
-    rows = table[table["parameter"] == "dFc"]
-    if rows.empty:
-        return None
-    row = rows.iloc[0]
-    half = (row["upper"] - row["lower"]) / 2
-    reach = float(np.hypot(half, stats.norm.ppf(0.5 + confidence / 2) * known_se))
-    if not abs(row["value"]) > reach:  # NaN: undefined, no finding
-        return None
-    before, refitted = scores
-    side = "above" if row["value"] > 0 else "below"
-    return (
-        f"the dynamic friction level is {abs(row['value']):.3g} {unit} {side} {known} (dFc = "
-        f"{row['value']:.3g} [{row['lower']:.3g}, {row['upper']:.3g}] {unit}; refitted alone, "
-        f"the held-out error goes {before.rmse:.4g} → {refitted.rmse:.4g} {unit}): a declared "
-        "mass or the free-fall drive is wrong, or friction depends on the load, or on the "
-        "direction of motion; these data cannot separate them (a free fall with another "
-        "hanging mass would)"
-    )
 
 
 #: a held-out RMSE more than this fraction above the one before an addition has risen

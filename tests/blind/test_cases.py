@@ -5,6 +5,7 @@ from types import SimpleNamespace
 import pandas as pd
 
 from hmid.blind import CLEAN, Case, dataset_for, outcome
+from hmid.loop.declared import Finding
 from hmid.loop.result import AddedEffect, Alternative, Verdict
 
 
@@ -27,6 +28,7 @@ def _result(effects, verdict=Verdict.EXPLAINED):
         notes=(),
         base_name="sls",
         base_parameters=pd.DataFrame(),
+        findings=(),
     )
 
 
@@ -67,3 +69,13 @@ def test_outcomes_are_judged_by_what_was_claimed():
     row = outcome(lib, worse)
     assert row["added, then worse"] and row["intervals without their estimate"] == "sls: tau"
     assert not outcome(lib, _result(["viscous"]))["added, then worse"]
+    # a second addition of other physics is spurious; a declared term found on clean data is
+    # false, one on an effect's data is not judged
+    assert outcome(lib, _result(["viscous", "stribeck"]))["spurious second effect"]
+    assert not outcome(lib, _result(["viscous"]))["spurious second effect"]
+    found = _result([], Verdict.NOTHING_ATTRIBUTABLE)
+    found.findings = (Finding("dFc", "the dynamic friction level is …"),)
+    assert outcome(clean, found)["declared, falsely found"]
+    assert outcome(clean, found)["declared found wrong"] == "dFc"
+    assert not outcome(clean, _result([]))["declared, falsely found"]
+    assert outcome(lib, found)["declared, falsely found"] is None

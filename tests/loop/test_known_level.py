@@ -150,3 +150,16 @@ def test_an_inertial_force_made_of_the_motion_alone_is_not_tested(synthetic):
     rig = RigSection.model_validate(spec | {"explained": {"name": "F", "parts": parts}})
     (known,) = known_values(rig, signals)
     assert (known.name, known.value, known.sign, known.correction) == ("m_rod", -0.2, -1, "dm_rod")
+
+
+def test_declared_terms_are_one_family_decided_by_holm():
+    from hmid.loop.declared import Finding, decide
+
+    tests = [Finding("dFc", "level", p=0.03), Finding("dM", "mass", p=1e-6),
+             Finding("motion.mass", "motion", p=0.2, refitted=False)]  # fmt: skip
+    # alone at 0.05 the level would be a finding; with three tests its Holm p is 0.06
+    assert [f.parameter for f in decide(tests, 0.05)] == ["dM"]
+    assert [f.parameter for f in decide(tests[:2], 0.05)] == ["dFc", "dM"]  # 0.03 x 1 after dM
+    (mass,) = decide(tests, 0.01)
+    assert mass.p == 3e-6 and "Holm-adjusted, of 3 declared-term tests" in mass.message
+    assert decide([Finding("dM", "undefined", p=float("nan"))], 0.05) == ()
