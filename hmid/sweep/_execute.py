@@ -68,6 +68,13 @@ def _start_worker(threads: int) -> None:
     threadpool_limits(limits=threads)  # libraries loaded already (NumPy's OpenBLAS), for good
 
 
+#: A worker process is replaced after this many runs: each run leaves some tens of MB behind in
+#: it (JAX's caches of the programs it compiled, which outlive the run), and the full blind
+#: suite's two workers grew to 11 GB after about 150 cases each and were killed for memory; a
+#: fresh worker costs a few seconds of imports, against runs of tens of seconds.
+RUNS_PER_WORKER = 16
+
+
 @contextmanager
 def open_executor(section: ExecutorSection) -> Iterator[Executor]:
     """An executor for ``section``, shut down (cluster and client closed) on leaving."""
@@ -77,8 +84,9 @@ def open_executor(section: ExecutorSection) -> Iterator[Executor]:
         context = multiprocessing.get_context("spawn")  # fresh interpreters: no forked threads
         threads = max(1, cores // workers)
         with ProcessPoolExecutor(
-            workers, mp_context=context, initializer=_start_worker, initargs=(threads,)
-        ) as pool:
+            workers, mp_context=context, initializer=_start_worker, initargs=(threads,),
+            max_tasks_per_child=RUNS_PER_WORKER,
+        ) as pool:  # fmt: skip
             yield pool
         return
     from distributed import Client, LocalCluster
