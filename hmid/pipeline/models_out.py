@@ -52,12 +52,13 @@ def free_run_section(config, free_runs: dict, units, out, drawing):
     text = (
         f"Each model run **free** over the held-out blocks: {position} simulated from the "
         "measured inputs and the measured state at each block's start alone, as a controller "
-        "uses the model (diffrax Tsit5, error-controlled; sign(v) regularised as tanh(v / v0) "
-        "with v0 the fit's low-speed cut-off). Fit % is MATLAB's NRMSE fit of the position. "
-        + (f"Bands: {'; '.join(bands)}. The disturbance's scale is calibrated on the training "
-           "blocks (cut to the held-out blocks' length) to the band's level there; the "
-           "band-coverage column is its coverage of the measured held-out position, the check."
-           if bands else "")
+        "uses the model (diffrax Tsit5, error-controlled; sign(v) regularised as tanh(v / v0), "
+        "v0 as fine as one sample's step integrates stably). Fit % is MATLAB's NRMSE fit of the "
+        "position. "
+        + (f"Bands: {'; '.join(bands)}. The disturbance, a force on the balance or a drift of "
+           "the position, is chosen and scaled on the training blocks (cut to the held-out "
+           "blocks' length); the band-coverage column is its coverage of the measured held-out "
+           "position, the check." if bands else "")
     )  # fmt: skip
     skipped = [f"{name}: {run.skipped}" for name, run in free_runs.items() if run.skipped]
     if skipped:

@@ -259,19 +259,15 @@ def _calibrate(model, sim, signals, spans, sampled, memory_rows, level, seed, st
 
 
 def _describe(band: str, calibrated: Calibration | None) -> str:
+    """What the band is made of, in a few words (the scale and coverages are the table's)."""
     if calibrated is None:
         return band + " + the training residual as a disturbance force (not calibrated)"
     if not calibrated.reachable:
         return band + ": " + calibrated.why_not()
     if calibrated.scale == 0:
-        return (band + f": alone it covers {100 * calibrated.coverage:.0f} % of the training "
-                "blocks, no disturbance added")  # fmt: skip
-    if calibrated.kind == DRIFT:
-        return (band + f" + a drift of the position ({calibrated.scale:.3g} per square root of "
-                "a second), its scale calibrated on the training blocks, where it covered "
-                "better than a disturbance force")  # fmt: skip
-    return (band + f" + a disturbance force {calibrated.scale:.3g}x the training residual, "
-            "its scale calibrated on the training blocks")  # fmt: skip
+        return band + " alone (it covers the training blocks without a disturbance)"
+    shape = "a drift of the position" if calibrated.kind == DRIFT else "a disturbance force"
+    return f"{band} + {shape}, calibrated on the training blocks"
 
 
 def _memory_states(model, signals) -> list[np.ndarray]:
