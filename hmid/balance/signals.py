@@ -302,7 +302,9 @@ class Signals:
         keep = self.rows(role)
         names = ["log", "t", *columns] if keys else list(columns)
         self.memo.noted(tuple((c, self._versions.get(c)) for c in names))
-        return self.frame.loc[keep, names].reset_index(drop=True)
+        # column by column: ``frame.loc[keep, names]`` holds a second copy of a column's rows
+        # while it builds the table (a long log's training rows are ~70 MB a column)
+        return pd.DataFrame({c: self.frame[c].array[keep] for c in names}, copy=False)
 
 
 def _shifted(values_of: Callable[[slice], np.ndarray], start: int):

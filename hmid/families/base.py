@@ -33,7 +33,8 @@ class FitData:
     """The rows a family fits or is scored on: ``signals`` (whole segments, smoothed channels,
     ``target`` = the explained quantity less the known terms) and the ``role`` whose rows count
     (``"train"`` or ``"validation"``). The fit stage hands families a ``target`` that is NaN
-    outside the training rows, so no held-out force can leak into a fit."""
+    outside the training rows, so no held-out force can leak into a fit (but for one that reads
+    it only through :attr:`y`: ``FamilySpec.reads_training_target_only``)."""
 
     signals: Signals
     rig: RigSection
@@ -261,6 +262,10 @@ class FamilySpec(BaseModel):
     fills_slot: ClassVar[bool] = True  # models the rig's actuator force (its {kind: model})
     #: what its fit imports (seconds for some): a worker that may fit it imports them ahead
     imports: ClassVar[tuple[str, ...]] = ()
+    #: its fit reads the explained quantity only on the training rows (``FitData.y``), never the
+    #: ``target`` column itself: the fit stage then hands it the signals as they are, not a copy
+    #: with the held-out rows blanked (on a long log a whole column more, 0.25x its size)
+    reads_training_target_only: ClassVar[bool] = False
 
     @classmethod
     def __pydantic_init_subclass__(cls, **kwargs):

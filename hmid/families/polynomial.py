@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import partial
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, ClassVar, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -49,6 +49,7 @@ class PolynomialSpec(FamilySpec):
     every one fitted by OLS on the same training rows, intervals by the ``errors`` method."""
 
     family: Literal["polynomial"] = "polynomial"
+    reads_training_target_only: ClassVar[bool] = True  # its fit reads data.y alone
     variants: tuple[Variant, ...] = THESIS_VARIANTS
     custom: tuple[CustomTerms, ...] = ()
     confidence: Annotated[float, Field(gt=0.5, lt=1)] = 0.95

@@ -93,9 +93,12 @@ def diverged(model: Fitted, data: FitData) -> str | None:
             bad = [n for n, v in zip(names, values, strict=True) if abs(v) > BEYOND]
             if bad:
                 return f"parameters {bad} are beyond any physical range (|value| > {BEYOND:g})"
-    y = data.y  # a copy of the training rows' target: taken once
-    y = y[np.isfinite(y)]
-    scale = float(np.sqrt(np.mean(y**2))) if len(y) else 0.0
+    y = data.y  # a copy of the training rows' target: taken once, squared in place
+    finite = np.isfinite(y)
+    if not finite.all():
+        y = y[finite]
+    del finite
+    scale = float(np.sqrt(np.mean(np.square(y, out=y)))) if len(y) else 0.0
     for role in ("train", "validation"):
         part = data.as_role(role)
         if not part.rows.any():

@@ -353,9 +353,11 @@ def fit(
     context = FitContext(config.seed, workdir, friction, force, beside)
     signals = split.signals
     # families see the explained quantity only where they may fit: NaN elsewhere, so no
-    # held-out force can leak into a fit
-    hidden = signals.with_columns(target=np.where(signals.train, signals.target, np.nan))
-    data = FitData(hidden, config.rig, "train")
+    # held-out force can leak into a fit; one that reads it only through the training rows
+    # (FitData.y) is handed the signals as they are (a long log's column is not copied)
+    if not all(spec.reads_training_target_only for spec in config.models):
+        signals = signals.with_columns(target=np.where(signals.train, signals.target, np.nan))
+    data = FitData(signals, config.rig, "train")
     # families are independent: shared with a worker (hmid.workers), each process taking the
     # next when it is free; a family fits the same wherever it runs
     tasks = Tasks(ahead=1) if len(config.models) > 1 else Tasks(workers=0)

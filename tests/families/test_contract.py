@@ -6,6 +6,7 @@ import json
 import pickle
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from hmid.balance import Structure, profile
@@ -77,3 +78,18 @@ def test_every_family_states_terms_the_loop_can_refit(family, fits, ch4_split):
         own = score(held.y, model.predict(held)).rmse
         again = refit.scores(signals.validation).rmse
         assert again <= 1.15 * own + 0.005, (model.name, own, again)
+
+
+@pytest.mark.parametrize(
+    "family", sorted(n for n, c in FAMILIES.items() if c.reads_training_target_only)
+)
+def test_a_family_that_reads_only_training_targets_never_sees_the_others(family, fits, ch4_split):
+    """The fit stage hands such a family the signals with the held-out target as it is (not
+    blanked): any other value there must leave its fit unchanged."""
+    config, split, friction, root = ch4_split
+    spec, fitted = fits[family]
+    signals = split.signals
+    wild = signals.with_columns(target=np.where(signals.train, signals.target, 1e9))
+    again = spec.fit(FitData(wild, config.rig), FitContext(5, root / family, friction))
+    for model, other in zip(fitted, again, strict=True):
+        pd.testing.assert_frame_equal(model.coefficients, other.coefficients)
