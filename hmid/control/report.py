@@ -252,18 +252,34 @@ def report(
         ),
     ]
     if len(frames["directions"]):
-        sections.insert(2, Section(
-            "Tracking by direction",
-            ("The steps each way: travel time from the reference's first move to 90 % of the "
-             "output's own travel (where it ends: PD alone stops short of the target), and "
-             "settling time (2 % band, or two sensor steps)." + _directions(study)),
-            tables=(Table(frames["directions"], "Travel and settling by direction"),),
-        ))  # fmt: skip
+        sections.insert(2, _directions_section(study, frames["directions"]))
     if len(study.valves) > 1:
         sections.insert(2, _on_off_section(study, config))
+    return Report(
+        f"Control study: {config.name}",
+        sections=tuple(sections),
+        lead=_lead(study.model, targets),
+        summary=(("model", study.model), ("valves", ", ".join(study.valves))),
+        provenance=provenance,
+    )
+
+
+def _directions_section(study: Study, table) -> Section:
+    """The steps each way, travel and settling times (the thesis's direction asymmetry)."""
+    return Section(
+        "Tracking by direction",
+        ("The steps each way: travel time from the reference's first move to 90 % of the "
+         "output's own travel (where it ends: PD alone stops short of the target), and "
+         "settling time (2 % band, or two sensor steps)." + _directions(study)),
+        tables=(Table(table, "Travel and settling by direction"),),
+    )  # fmt: skip
+
+
+def _lead(model: str, targets: dict) -> str:
+    """The report's first lines: each target, met or not."""
     said = {True: "met", False: "not met", None: "n/a"}
     lead = (
-        f"Model {study.model}: feed-forward + PD lowers PD alone's RMSE by >= 50 % on every "
+        f"Model {model}: feed-forward + PD lowers PD alone's RMSE by >= 50 % on every "
         f"task with proportional valves: {said[targets['reduction_met_proportional']]}; with "
         f"on/off valves: {said[targets['reduction_met_on_off']]}; robustness (<= 1.5x): "
         f"{said[targets['robustness_met']]}."
@@ -276,13 +292,7 @@ def report(
             )
             + "."
         )
-    return Report(
-        f"Control study: {config.name}",
-        sections=tuple(sections),
-        lead=lead,
-        summary=(("model", study.model), ("valves", ", ".join(study.valves))),
-        provenance=provenance,
-    )
+    return lead
 
 
 def _resonances(study: Study) -> str:

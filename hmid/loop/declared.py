@@ -44,6 +44,7 @@ from scipy import stats
 from hmid.balance import Column, Columns, Signals, Term
 from hmid.balance.checks import logged_channels
 from hmid.balance.terms import unit_of
+from hmid.stats import holm
 
 
 @dataclass(frozen=True)
@@ -77,8 +78,6 @@ def decide(tests: tuple[Finding, ...] | list[Finding], alpha: float) -> tuple[Fi
     family-wise rate of a false finding stays at ``alpha`` however many terms a rig declares),
     a finding where the adjusted p is below ``alpha``; each message says its adjusted p. A
     NaN p (an undefined test) is no finding."""
-    from hmid.stats import holm
-
     if not tests:
         return ()
     raw = np.array([t.p if np.isfinite(t.p) else 1.0 for t in tests])

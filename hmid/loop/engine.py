@@ -110,16 +110,8 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
               across_logs=False, rig=None, low_speed=None) -> LoopResult:  # fmt: skip
     clock = _Clock()
     setting = replace(setting, dt=signals.dt)  # timing grids follow the sample rate
-    candidates = make_candidates(spec.candidate_names(setting), setting)
     held = signals.validation  # the comparison's held-out rows: reported on, never decided on
-    margins = [base.structure.margins, *(c.margins for c in candidates)]
-    signals = signals.trim(max(m[0] for m in margins), max(m[1] for m in margins))
-    # the Coulomb level is refitted with the base: a free-fall fit absorbs any other friction
-    # law, and its level change would otherwise be the cheapest explanation of every one
-    refit = level(setting)
-    structure = base.structure if refit is None else base.structure.plus(refit)
-    # every 4th relaxation time, then a walk (as in each screen): the base's profile is smooth
-    current = start = profile(structure, signals, step=PROFILE_STEP)
+    candidates, signals, refit, start = _prepared(signals, base, spec, setting)
     # the rig's known values are hypotheses: a correction found is kept in the base, so that
     # no candidate can be credited with it
     level_known = setting.known_level if refit is not None else None
@@ -133,8 +125,7 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
     has_elastic = bool(np.any(signals[ELASTIC])) if ELASTIC in signals else False
     remaining = [c for c in candidates if has_elastic or not c.elastic]
     decisions: list[Decision] = []
-    effects, steps = [], []
-    friction_added = False
+    effects, steps, friction_added = [], [], False
     part = "setting up"  # what the clock's next lap timed
     for round_no in range(1, spec.max_effects + 1):
         if round_no > 1:  # the model changed: its elastic force with it
@@ -163,23 +154,44 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
         strongest = pattern_scan(current.residual, signals.train, signals)["eta2"].max()
         if strongest < spec.structure_threshold:
             break
-    notes: tuple[str, ...] = ()
-    if low_speed is not None and not setting.declared and friction_added:
+    refitted = friction_added and low_speed is not None and not setting.declared
+    if refitted:
         current = profile(current.structure, without_stopped(signals, low_speed))
-        notes = ("friction was added to a rig that declares none: the final model is refitted "
-                 f"without the rows of stopped motion (|v| < {low_speed:g} m/s, as "
-                 "fit.exclude_stuck: true leaves out), where static friction is "
-                 "indeterminate",)  # fmt: skip
     clock.lap(part)
     result = finish(spec, signals, base, start, current, effects, decisions, held, steps,
                     held_out="logs" if across_logs else "rows",
                     fitted_level=setting.fitted_level if refit is not None else None,
                     findings=findings)  # fmt: skip
     clock.lap("diagnostics and verdict")
-    if notes:  # each added effect's table as the final refit has it
-        effects = tuple(_as_final(e, result.final_parameters) for e in result.effects)
-        result = replace(result, effects=effects)
-    return replace(result, costs=clock.laps, notes=(*result.notes, *notes))
+    if refitted:
+        result = _refitted_without_stopped(result, low_speed)
+    return replace(result, costs=clock.laps)
+
+
+def _prepared(signals, base: LoopBase, spec: LoopSpec, setting: Setting):
+    """The candidates, the signals trimmed to every structure's margins, the Coulomb level to
+    refit (None where the rig has none) and the base fitted with it. The level is refitted
+    with the base: a free-fall fit absorbs any other friction law, and its level change would
+    otherwise be the cheapest explanation of every one."""
+    candidates = make_candidates(spec.candidate_names(setting), setting)
+    margins = [base.structure.margins, *(c.margins for c in candidates)]
+    signals = signals.trim(max(m[0] for m in margins), max(m[1] for m in margins))
+    refit = level(setting)
+    structure = base.structure if refit is None else base.structure.plus(refit)
+    # every 4th relaxation time, then a walk (as in each screen): the base's profile is smooth
+    return candidates, signals, refit, profile(structure, signals, step=PROFILE_STEP)
+
+
+def _refitted_without_stopped(result: LoopResult, low_speed: float) -> LoopResult:
+    """The result of a final refit without the stopped rows: each added effect's table as
+    that refit has it, and a note that says why."""
+    note = (
+        "friction was added to a rig that declares none: the final model is refitted "
+        f"without the rows of stopped motion (|v| < {low_speed:g} m/s, as "
+        "fit.exclude_stuck: true leaves out), where static friction is indeterminate"
+    )
+    effects = tuple(_as_final(e, result.final_parameters) for e in result.effects)
+    return replace(result, effects=effects, notes=(*result.notes, note))
 
 
 def _as_final(effect, final):

@@ -130,23 +130,24 @@ def simulate_signals(
         run = sim.integrate(*start, size=size)
         bounds = None
         if sampled:
-            noise = np.zeros((len(sampled), len(rows)))
-            if not drift:
-                noise = scale * disturbances(model, len(rows), len(sampled), rng)
-            runs = sim.positions(
-                *start,
-                [sim.coefficients(), *sampled],
-                np.concatenate([np.zeros((1, len(rows))), noise]),
-                stride=stride,
-                size=size,
-            )[1:]
-            if drift:
-                runs = runs + scale * drifts(start[0], len(sampled), rng)
+            runs = _draws(model, sim, start, sampled, scale, drift, rng, stride, size)
             bounds = quantile_band(runs, level)
         out.append(score_block(model.rig, signals, rows, run, bounds))
     return FreeRun(model.name, tuple(out), level=level if sampled else None,
                    band=_describe(band, calibrated) if sampled else "",
                    calibration=calibrated)  # fmt: skip
+
+
+def _draws(model, sim, start, sampled, scale, drift, rng, stride, size) -> np.ndarray:
+    """The position of a block's band draws (draws, samples): each coefficient draw run with
+    its disturbance force (scale ``scale``), or run without one and a drift of that scale
+    added (``drift``)."""
+    n, count = len(start[0]), len(sampled)
+    noise = np.zeros((count, n)) if drift else scale * disturbances(model, n, count, rng)
+    runs = sim.positions(*start, [sim.coefficients(), *sampled],
+                         np.concatenate([np.zeros((1, n)), noise]), stride=stride,
+                         size=size)[1:]  # fmt: skip
+    return runs + scale * drifts(start[0], count, rng) if drift else runs
 
 
 #: What a block's free run starts from: its times, inputs, first position, speed, memory states
