@@ -213,17 +213,17 @@ def cross_miss(chunks: list, level: float) -> float:
     """How far the band misses the level on training blocks it was not calibrated on: the
     scale calibrated on every other chunk, the coverage measured on the rest, both ways, in
     each of :data:`HORIZONS` spans of the time run since the chunk's start; the mean distance
-    of those coverages from ``level`` (inf where a half cannot reach it, NaN with fewer than
-    two chunks). Judged by horizon, the miss sees a band of the wrong shape (too narrow early
-    and too wide late, or the reverse) that a coverage pooled over the chunks would not."""
+    of those coverages from ``level`` (NaN with fewer than two chunks). Judged by horizon, the
+    miss sees a band of the wrong shape (too narrow early and too wide late, or the reverse)
+    that a coverage pooled over the chunks would not. A half that no scale brings to the level
+    lends the other half its largest scale tried: the shape is judged by what that band covers
+    there (a band far too wide misses too), not ruled out by one calm half."""
     if len(chunks) < 2:
         return np.nan
     halves = (chunks[0::2], chunks[1::2])
     miss = []
     for fitted, checked in (halves, halves[::-1]):
         found = calibrate(fitted, level)
-        if not found.reachable:
-            return np.inf
         miss.append(np.abs(coverage_by_horizon(checked, level, found.scale) - level))
     return float(np.mean(miss))
 
