@@ -35,7 +35,14 @@ from typing import Any
 
 import numpy as np
 
-from hmid.control.tuning import Tuning, TuningError, _closed_matrix, pd_filter, resonance
+from hmid.control.tuning import (
+    Tuning,
+    TuningError,
+    _closed_matrix,
+    pd_filter,
+    resonance,
+    sampled_response,
+)
 
 KD_GRID = np.r_[0.0, np.geomspace(1e-5, 1.0, 16)]  # times the plant's sign / static gain
 KP_GRID = np.geomspace(1e-3, 1e3, 49)
@@ -113,14 +120,7 @@ def tune_pid(
     """The PID for ``plant`` (a continuous ``control.StateSpace``) by the rule of the module's
     docstring: a :class:`~hmid.control.tuning.Tuning` with its ``ki``; :class:`TuningError` if
     no PID on the grid meets the margins."""
-    import control
-
-    sampled = control.ss(control.c2d(control.ss(plant), dt, "zoh"))
-    Ad, Bd, Cd = (np.asarray(m) for m in (sampled.A, sampled.B, sampled.C))
-    freqs = np.geomspace(0.01, 0.5 / dt, 2000)
-    z = np.exp(2j * np.pi * freqs * dt)
-    g = np.asarray(sampled(z)).reshape(-1)
-    d = np.asarray(pd_filter(tf, dt)(z)).reshape(-1)
+    (Ad, Bd, Cd), z, g, d = sampled_response(plant, dt, tf, 2000)
     i = dt * z / (z - 1)
     static = np.sign(g[0].real) / abs(g[0])  # the gains take the plant's sign
     kps, kis = KP_GRID * static, KI_GRID * static

@@ -123,6 +123,19 @@ def _margins(L: np.ndarray) -> tuple[float, float]:
     return gm, pm
 
 
+def sampled_response(plant: Any, dt: float, tf: float, points: int):
+    """``plant`` (a continuous ``control.StateSpace``) sampled at ``dt`` (zero-order hold):
+    its matrices (A, B, C), and on ``points`` frequencies up to Nyquist the grid z, its
+    response there and the derivative filter's (time constant ``tf``)."""
+    import control
+
+    sampled = control.ss(control.c2d(control.ss(plant), dt, "zoh"))
+    matrices = tuple(np.asarray(m) for m in (sampled.A, sampled.B, sampled.C))
+    z = np.exp(2j * np.pi * np.geomspace(0.01, 0.5 / dt, points) * dt)
+    g = np.asarray(sampled(z)).reshape(-1)
+    return matrices, z, g, np.asarray(pd_filter(tf, dt)(z)).reshape(-1)
+
+
 def tune(
     plant: Any,
     dt: float,
@@ -133,14 +146,7 @@ def tune(
 ) -> Tuning:
     """The PD gains for ``plant`` (a continuous ``control.StateSpace``) by the rule of the
     module's docstring; :class:`TuningError` if no PD on the grid meets the margins."""
-    import control
-
-    sampled = control.ss(control.c2d(control.ss(plant), dt, "zoh"))
-    Ad, Bd, Cd = (np.asarray(m) for m in (sampled.A, sampled.B, sampled.C))
-    freqs = np.geomspace(0.01, 0.5 / dt, 3000)
-    z = np.exp(2j * np.pi * freqs * dt)
-    g = np.asarray(sampled(z)).reshape(-1)
-    d = np.asarray(pd_filter(tf, dt)(z)).reshape(-1)
+    (Ad, Bd, Cd), _, g, d = sampled_response(plant, dt, tf, 3000)
     static = np.sign(g[0].real) / abs(g[0])  # the gains take the plant's sign (the ankle's < 0)
     a = np.exp(-dt / tf)
     candidates: list[tuple[float, float]] = []
