@@ -9,23 +9,20 @@ import control
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from _frictionless import FRICTIONLESS, linearised
 
-from hmid.control import ForceLaw, MuscleRig, feedforward, reference, track, tune
+from hmid.control import ForceLaw, feedforward, track, tune
 from hmid.control.controllers import PD, PID
 from hmid.control.integral import delayed, pid_poles, pid_transfer, tune_pid
-from hmid.simulate.params import FrictionParams, MuscleParams, RigParams
+from hmid.simulate.params import MuscleParams
 
 DT = 1e-3
-FRICTIONLESS = RigParams(friction=FrictionParams(F_block=0.0, F_pulley=0.0))
 T = np.arange(0, 3001) * DT
 
 
 def _linear(task: str = "position"):
-    law = ForceLaw.of_rig(FRICTIONLESS)
-    plant = MuscleRig(FRICTIONLESS, task, sensor_step=0.0)  # type: ignore[arg-type]
     low, high = (0.004, 0.006) if task == "position" else (5.0, 15.0)
-    ref = reference("step_up", T, low, high, step_at=0.5, transition=0.25)
-    return law, plant, ref, plant.linear(law, ref, 0.03)
+    return linearised(task, T, low, high, step_at=0.5, transition=0.25)
 
 
 @pytest.mark.parametrize("task", ["position", "force"])

@@ -5,22 +5,18 @@ answers a small step as the linear loop predicts."""
 import control
 import numpy as np
 import pytest
+from _frictionless import linearised
 
-from hmid.control import ForceLaw, MuscleRig, feedforward, reference, track, tune
+from hmid.control import feedforward, track, tune
 from hmid.control.tuning import closed_loop_poles, closed_poles, pd_transfer
-from hmid.simulate.params import FrictionParams, RigParams
 
 DT = 1e-3
-FRICTIONLESS = RigParams(friction=FrictionParams(F_block=0.0, F_pulley=0.0))
 T = np.arange(0, 2001) * DT
 
 
 def _linear(task: str):
-    law = ForceLaw.of_rig(FRICTIONLESS)
-    plant = MuscleRig(FRICTIONLESS, task, sensor_step=0.0)  # type: ignore[arg-type]
     low, high = (0.004, 0.0042) if task == "position" else (5.0, 5.2)
-    ref = reference("step_up", T, low, high, step_at=0.2, transition=0.05)
-    return law, plant, ref, plant.linear(law, ref, 0.03)
+    return linearised(task, T, low, high, step_at=0.2, transition=0.05)
 
 
 @pytest.mark.parametrize("task", ["position", "force"])
