@@ -99,18 +99,20 @@ class _Pool:
         return future
 
     def stop(self) -> None:
-        """Kill the workers and reap them. The pool's own thread, which sees them die, closes
-        its queues (unregistering their semaphores from multiprocessing's resource tracker);
-        the interpreter joins that thread at exit."""
-        # futures left uncancelled: the pool's thread marks them broken when it sees the dead
-        # workers, and Python 3.11's raises if they were cancelled
-        self.executor.shutdown(wait=False)
+        """Kill the workers and reap them, then wait for the pool's own thread: it sees them
+        die, marks their futures broken and closes its queues and its wake-up pipe. Left
+        running, it may close that pipe while the interpreter's exit hook
+        (concurrent.futures' ``_python_exit``, unlocked in Python 3.11) writes to it, which
+        prints an ``OSError: Bad file descriptor`` traceback after the program's last line."""
         for process in self.processes:
             process.kill()
         for process in self.processes:
             # a killed process is gone at once, but on a loaded machine its reaping can lag a
             # second (it then stays listed as an active child)
             process.join(timeout=5.0)
+        # futures left uncancelled: the pool's thread marks them broken when it sees the dead
+        # workers, and Python 3.11's raises if they were cancelled
+        self.executor.shutdown(wait=True)
 
 
 @contextmanager

@@ -2,6 +2,7 @@
 failures raised, work shared, and the caller running what the worker has not begun."""
 
 import os
+import threading
 import time
 
 import _worker_tasks
@@ -142,3 +143,20 @@ def test_shutdown_stops_a_busy_worker_at_once(tmp_path):
     assert time.monotonic() - started < 10.0
     with pytest.raises(ProcessLookupError):  # killed and reaped
         os.kill(busy, 0)
+
+
+def test_shutdown_leaves_no_pool_thread_for_the_exit_hook(tmp_path):
+    """After a shutdown the pool's own thread has ended: the interpreter's exit hook would
+    otherwise race it for its wake-up pipe (a 'Bad file descriptor' traceback after a
+    SIGTERM's one line)."""
+    workers_module.shutdown()
+    before = set(threading.enumerate())
+    tasks = Tasks(workers=1).start()
+    pid_file = tmp_path / "busy.pid"
+    tasks.submit(_worker_tasks.write_pid_then_sleep, pid_file, 60.0)
+    deadline = time.monotonic() + 60
+    while not pid_file.exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert set(threading.enumerate()) - before  # the pool's thread (and its queue's) ran
+    workers_module.shutdown()
+    assert not [t for t in set(threading.enumerate()) - before if t.is_alive()]
