@@ -4,7 +4,8 @@ The thesis identifies the Hydro Muscle in order to control it (§1.3-1.4, Fig. 1
 from the model's inverse dynamics plus feedback. This package runs that on the simulator's rigs:
 
 * :mod:`~hmid.control.controllers`: the PD set-point tracker, feed-forward + the same PD, and
-  that plus integral action (a PID with anti-windup);
+  that plus integral action (a PID with anti-windup); :mod:`~hmid.control.observer`: or plus a
+  disturbance observer (the model's inverse estimates what the model misses);
 * :mod:`~hmid.control.inverse`: a loaded model solved for the pressure a motion or force needs;
 * :mod:`~hmid.control.actuation`: a pressure command on proportional or on/off valves;
 * :mod:`~hmid.control.tuning`: the PD's tuning rule on the linearised plant (python-control);
@@ -34,6 +35,7 @@ if TYPE_CHECKING:
     from hmid.control.integral import tune_pid
     from hmid.control.inverse import ForceLaw, NotInvertible
     from hmid.control.metrics import Metrics
+    from hmid.control.observer import DOB, tune_dob
     from hmid.control.plant import MuscleRig, Plant
     from hmid.control.references import Reference, reference
     from hmid.control.study import Study, run_study
@@ -59,6 +61,8 @@ _LAZY = {
     "ForceLaw": "hmid.control.inverse",
     "NotInvertible": "hmid.control.inverse",
     "Metrics": "hmid.control.metrics",
+    "DOB": "hmid.control.observer",
+    "tune_dob": "hmid.control.observer",
     "MuscleRig": "hmid.control.plant",
     "Plant": "hmid.control.plant",
     "Reference": "hmid.control.references",
@@ -70,6 +74,7 @@ _LAZY = {
     "tune": "hmid.control.tuning",
 }
 __all__ = [
+    "DOB",
     "PD",
     "PID",
     "PWM",
@@ -97,6 +102,7 @@ __all__ = [
     "switchings",
     "track",
     "tune",
+    "tune_dob",
     "tune_pid",
 ]
 

@@ -125,8 +125,8 @@ class TrackingTasks(_Strict):
 
 class ControllerSection(_Strict):
     """The PD's tuning rule (:mod:`hmid.control.tuning`; FF+PID's, :mod:`hmid.control.integral`,
-    asks the same margins) and what the controller knows of its valve (its datasheet's lag,
-    inverted by the feed-forward)."""
+    and FF+DOB's, :mod:`hmid.control.observer`, ask the same margins) and what the controller
+    knows of its valve (its datasheet's lag, inverted by the feed-forward)."""
 
     gain_margin_db: Positive = 6.0
     phase_margin_deg: Annotated[float, Field(gt=0, lt=90)] = 45.0
@@ -174,7 +174,8 @@ class ControlConfig(_Strict):
     transition: Positive = 0.25
     frequency: Positive = 1.0
     references: tuple[ReferenceKind, ...] = REFERENCE_KINDS
-    # PD alone and FF+PD always (the comparison); FF+PID adds integral action to FF+PD
+    # PD alone and FF+PD always (the comparison); FF+PID adds integral action to FF+PD, FF+DOB
+    # a disturbance observer (hmid.control.observer)
     controllers: tuple[ControllerKind, ...] = ("PD", "FF+PD")
     noise: bool = True  # the sensors' noise (the demo's: 15 um, 6 mN)
     tasks: TrackingTasks = TrackingTasks()
@@ -192,7 +193,7 @@ class ControlConfig(_Strict):
             or len(set(self.controllers)) < len(self.controllers)
         ):
             raise ValueError(f"controllers: {list(self.controllers)}: want PD and FF+PD, and "
-                             "FF+PID if asked, each once")  # fmt: skip
+                             "FF+PID or FF+DOB if asked, each once")  # fmt: skip
         if (self.model is None) == (self.ankle is None):
             raise ValueError("give a model (the Ch. 4 rig) or an ankle section, one of them")
         if self.ankle is not None and self.ankle.engaged is not None:

@@ -89,11 +89,12 @@ class PID(eqx.Module):
 
 
 class Tracker(eqx.Module):
-    """Feed-forward plus feedback (:class:`PD` or :class:`PID`) on the tracked output;
+    """Feed-forward plus feedback (:class:`PD`, :class:`PID` or the PD with a disturbance
+    observer, :class:`hmid.control.observer.DOB`) on the tracked output;
     ``reference`` at each sample is a dict with ``r`` (the reference), ``ff`` (the feed-forward
     effort) and ``noise`` (sensor noise)."""
 
-    law: PD | PID
+    law: Any  # PD, PID or hmid.control.observer.DOB
     tracked: str = eqx.field(static=True)
     resolution: Any = 0.0  # the sensor's step (0: not quantised)
     actuation: Actuation = Proportional()

@@ -6,6 +6,9 @@ The controllers (:mod:`hmid.control.controllers`) are named by what their feed-f
 * ``FF+PD``: the identified model's inverse dynamics plus the same PD;
 * ``FF+PID``: the same feed-forward plus a PID (:mod:`hmid.control.integral`: integral action
   for what the model misses, with anti-windup at the valves' limits);
+* ``FF+DOB``: the same feed-forward and PD plus a disturbance observer
+  (:mod:`hmid.control.observer`: the model's inverse estimates what the model misses, and the
+  feed-forward is corrected by it);
 * ``FF``: the inverse dynamics alone (no feedback: the perfect-model check).
 
 A run simulates the plant's rig under the tracker in one compiled scan
@@ -23,13 +26,14 @@ import numpy as np
 from hmid.control.controllers import PD, PID, Tracker
 from hmid.control.inverse import ForceLaw
 from hmid.control.metrics import Metrics, tracking_score
+from hmid.control.observer import DOB
 from hmid.control.plant import Plant
 from hmid.control.references import Reference
 from hmid.control.tuning import Tuning
 from hmid.simulate.rig import closed_loop
 
-ControllerKind = Literal["PD", "FF+PD", "FF+PID", "FF"]
-CONTROLLERS: tuple[ControllerKind, ...] = ("PD", "FF+PD", "FF+PID", "FF")
+ControllerKind = Literal["PD", "FF+PD", "FF+PID", "FF+DOB", "FF"]
+CONTROLLERS: tuple[ControllerKind, ...] = ("PD", "FF+PD", "FF+PID", "FF+DOB", "FF")
 
 
 @dataclass(frozen=True)
@@ -54,15 +58,23 @@ def tracker(plant: Plant, tuning: Tuning, controller: ControllerKind = "FF+PD") 
     """The tracker of ``plant`` with the tuned gains (arrays: new gains do not recompile); a
     PID for ``FF+PID`` (``tuning`` then :func:`~hmid.control.integral.tune_pid`'s), its
     anti-windup at the plant's :attr:`~hmid.control.plant.Plant.limits`, its deadband half the
-    sensor's step."""
+    sensor's step; the PD with a disturbance observer for ``FF+DOB`` (``tuning`` then
+    :func:`~hmid.control.observer.tune_dob`'s), with the same limits and deadband."""
     pd = PD(*(jnp.asarray(v, dtype=float) for v in (tuning.kp, tuning.kd, tuning.tf,
                                                        tuning.dt)))  # fmt: skip
-    law: PD | PID = pd
+    law: PD | PID | DOB = pd
     if controller == "FF+PID":
         if tuning.ki == 0:
             raise ValueError("FF+PID needs a PID's tuning (hmid.control.integral.tune_pid)")
         law = PID(pd, *(jnp.asarray(v, dtype=float) for v in (tuning.ki, *plant.limits,
                                                               plant.resolution / 2)))  # fmt: skip
+    if controller == "FF+DOB":
+        obs = tuning.observer
+        if obs is None:
+            raise ValueError("FF+DOB needs an observer's tuning (hmid.control.observer.tune_dob)")
+        law = DOB(pd, *(jnp.asarray(m, dtype=float) for m in (obs.A, obs.B, obs.C,
+                                                               *plant.limits,
+                                                               plant.resolution / 2)))  # fmt: skip
     return Tracker(law, plant.tracked, jnp.asarray(plant.resolution), plant.actuation,
                    jnp.asarray(0.0 if controller == "FF" else 1.0))  # fmt: skip
 

@@ -29,6 +29,9 @@ def tables(study: Study) -> dict[str, pd.DataFrame]:
     for task in study.tasks:
         tuning.append(_tuning_row(task, task.tuning, "PD, FF+PD", "all"))
         tuning += [_tuning_row(task, tn, "FF+PID", v) for v, tn in task.integral.items()]
+        tuning += [_tuning_row(task, tn, "FF+DOB", v)
+                   | {"observer bandwidth (Hz)": tn.observer.bandwidth_hz}
+                   for v, tn in task.observers.items()]  # fmt: skip
         for (kind, valves, controller), run in task.runs.items():
             m = run.metrics
             tracking.append({"task": task.task, "reference": kind, "valves": valves,
@@ -204,6 +207,18 @@ def _figure_dir(run_dir: Path) -> Path:
     return run_dir / "figures"
 
 
+def _observer_rule(study: Study) -> str:
+    """FF+DOB's rule, where the study ran it (nothing otherwise: the text stays as it was)."""
+    if not any(task.observers for task in study.tasks):
+        return ""
+    return (
+        " FF+DOB (hmid/control/observer.py): the same PD and a disturbance observer, the "
+        "model's linearised inverse low-passed by Q = 1/(s/w + 1)^n; the widest w whose loop "
+        "keeps the asked margins (or costs the PD's own gain margin, by the closed loop's "
+        "eigenvalues, at most 0.5 dB where the PD has less), per valve kind."
+    )
+
+
 def report(
     study: Study, config: ControlConfig, run_dir: Path, metrics: dict, provenance: dict
 ) -> Report:
@@ -220,6 +235,7 @@ def report(
                 f"python-control. {_resonances(study)} FF+PID (hmid/control/integral.py), "
                 "where asked: the largest integral gain with the same margins (MIGO), per valve "
                 "kind, the on/off loop behind the valves' switching delay (opening + closing)."
+                + _observer_rule(study)
             ),
             tables=(Table(frames["tuning"], "Gains and python-control's margins"),),
         ),

@@ -25,10 +25,11 @@ from hmid.control.config import ControlConfig
 from hmid.control.experiments import ControllerKind, FeedForward, Tracking, feedforward, track
 from hmid.control.integral import delayed, tune_pid
 from hmid.control.inverse import ForceLaw
+from hmid.control.observer import tune_dob
 from hmid.control.plant import MuscleRig, Plant
 from hmid.control.references import Reference, reference
 from hmid.control.robustness import Spread, posterior_muscles
-from hmid.control.tuning import Tuning, tune
+from hmid.control.tuning import Tuning, TuningError, tune
 from hmid.errors import SimulationError
 from hmid.simulate.effects import make_effect
 from hmid.simulate.params import Sensors
@@ -47,6 +48,7 @@ class TaskResult:
     runs: dict[tuple[str, str, ControllerKind], Tracking]
     spreads: dict[str, list[Spread]]  # reference kind -> robustness cases
     integral: dict[str, Tuning] = field(default_factory=dict)  # valves -> FF+PID's gains
+    observers: dict[str, Tuning] = field(default_factory=dict)  # valves -> FF+DOB's tuning
 
     def reduction(self, kind: str, valves: str) -> float:
         """1 - RMSE(FF+PD) / RMSE(PD) (the issue's target: >= 0.5)."""
@@ -148,6 +150,7 @@ def run_tracking_task(
         for name in valve_kinds(config)
         if "FF+PID" in config.controllers
     }  # fmt: skip
+    observers = _observers(linear, tuning, config) if "FF+DOB" in config.controllers else {}
     gains = {c: tuning for c in ("PD", "FF+PD")}
     runs: dict[tuple[str, str, ControllerKind], Tracking] = {}
     spreads: dict[str, list[Spread]] = {}
@@ -158,11 +161,14 @@ def run_tracking_task(
         for name in valve_kinds(config):
             target = plant if name == "proportional" else on_off(plant, config)
             gains["FF+PID"] = integral.get(name, tuning)
-            for controller in config.controllers:
+            gains["FF+DOB"] = observers.get(name, tuning)
+            # FF+DOB only on the valves where an observer keeps the margins
+            asked = [c for c in config.controllers if c != "FF+DOB" or name in observers]
+            for controller in asked:
                 ff = feedforward(target, law, ref, controller, ctl.valve_tau)
                 runs[(kind, name, controller)] = track(target, gains[controller], ff, ref,
                                                        controller, seed)  # fmt: skip
-            for controller in (c for c in config.controllers if c != "PD"):
+            for controller in (c for c in asked if c != "PD"):
                 nominal = runs[(kind, name, controller)].metrics.rmse
                 ff = feedforward(target, law, ref, controller, ctl.valve_tau)
                 for case, cases in perturbed:
@@ -172,7 +178,24 @@ def run_tracking_task(
                     spreads[kind].append(Spread(case, nominal, np.array(rmse), controller, name))
     gain = float(np.squeeze(linear.dcgain()))
     return TaskResult(task, plant.unit, plant.resolution, plant, tuning, gain, runs, spreads,
-                      integral)  # fmt: skip
+                      integral, observers)  # fmt: skip
+
+
+def _observers(linear, tuning: Tuning, config: ControlConfig) -> dict[str, Tuning]:
+    """FF+DOB's observer per valve kind (:func:`~hmid.control.observer.tune_dob`, the on/off
+    loop behind the valves' switching delay); a valve kind where none keeps the margins is left
+    out (its FF+DOB is not run: the report's tuning table says so)."""
+    ctl = config.controller
+    out = {}
+    for name in valve_kinds(config):
+        try:
+            out[name] = tune_dob(linear, tuning, 1.0 / config.rate,
+                                 delay=switching_delay(config, name),
+                                 gain_margin_db=ctl.gain_margin_db,
+                                 phase_margin_deg=ctl.phase_margin_deg)  # fmt: skip
+        except TuningError:
+            continue
+    return out
 
 
 def run_study(config: ControlConfig, model, progress: Callable[[str], None] | None = None) -> Study:

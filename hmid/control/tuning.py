@@ -52,6 +52,7 @@ class Tuning:
     resonance_hz: float  # the plant's least-damped oscillatory mode (NaN: none)
     resonance_damping: float  # its damping ratio
     ki: float = 0.0  # the integral gain (0: a PD; :mod:`hmid.control.integral`'s rule sets it)
+    observer: Any = None  # FF+DOB's disturbance observer (:mod:`hmid.control.observer`)
 
     @property
     def stable(self) -> bool:
