@@ -138,3 +138,30 @@ def test_an_ankle_config_without_fibre_models_says_how_to_make_them(tmp_path, ca
     assert main(["control", str(path), "--results", str(tmp_path / "r")]) == 2
     err = capsys.readouterr().err.strip()
     assert "make fibre-models" in err and len(err.splitlines()) == 1
+
+
+def test_ff_dob_runs_beside_the_comparison_where_an_observer_keeps_the_margins(
+    identified, tmp_path
+):
+    config = _config(tmp_path, model={"run": str(identified), "name": "sls"},
+                     controllers=["PD", "FF+PD", "FF+DOB"], duration=1.5, step_at=0.5,
+                     references=["step_up"],
+                     robustness={"draws": 0, "effects": [{"kind": "stribeck", "delta": 0.2,
+                                                          "v_s": 0.005}]})  # fmt: skip
+    assert main(["control", str(config), "--results", str(tmp_path / "r"), "--quiet"]) == 0
+    (run_dir,) = (tmp_path / "r" / "control-muscle").iterdir()
+    tuning = pd.read_csv(run_dir / "tables" / "tuning.csv")
+    dob = tuning[tuning["controller"] == "FF+DOB"]
+    # the proportional valve's loops have one each; the on/off force loop, whose PD has no gain
+    # margin left behind the switching delay, none
+    assert {("force", "proportional"), ("position", "proportional")} <= set(
+        zip(dob["task"], dob["valves"], strict=True)
+    )
+    assert dob["stable"].all() and (dob["observer bandwidth (Hz)"] > 0).all()
+    assert (dob["phase margin (deg)"] >= 45).all()
+    tracking = pd.read_csv(run_dir / "tables" / "tracking.csv")
+    ran = set(zip(tracking["task"], tracking["valves"], tracking["controller"], strict=True))
+    assert {(t, v, "FF+DOB") for t, v in zip(dob["task"], dob["valves"], strict=True)} <= ran
+    robust = pd.read_csv(run_dir / "tables" / "robustness.csv")
+    assert "FF+DOB" in set(robust["controller"])
+    assert "disturbance observer" in (run_dir / "report.md").read_text()
