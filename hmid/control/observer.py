@@ -29,8 +29,9 @@ the gain margin is the closed loop's eigenvalues' (the smallest gain that moves 
 unit circle), not ``control.margin``'s: a 1 %-damped resonance's peak is sharper than a frequency
 grid, and the observer's inverse nearly cancels the plant's poles, which costs a transfer
 function's polynomial roots their digits (the PD alone of the demo model's position on the
-Ch. 4 rig: ``control.margin`` 6.4 dB, the eigenvalues 5.7 dB). Besides the margins, the quantised sensor
-bounds it: G^-1 differentiates the reading n - 1 times, and Q's roll-off is what is left.
+Ch. 4 rig: ``control.margin`` 6.4 dB, the eigenvalues 5.7 dB). Besides the margins, the
+quantised sensor bounds it: G^-1 differentiates the reading n - 1 times, and Q's roll-off is
+what is left.
 
 Three details, the PID's (:mod:`hmid.control.integral`) for the same reasons: errors within half
 a sensor step are none (a deadband: the quantised reading of a target between two steps is never
@@ -159,9 +160,11 @@ def observer_report(plant: Any, pd: Tuning, obs: Observer, dt: float) -> Tuning:
     # the observer's inverse nearly cancels the plant's poles: a transfer function's polynomial
     # roots (control.margin's) lose those digits, and a frequency grid misses the 1 %-damped
     # resonance's peak. The gain margin from the closed loop's eigenvalues, the phase margin
-    # from the loop's response on a dense grid (its crossover is far below the resonance)
-    hz = np.geomspace(1e-3, 0.5 / dt, 6000)
-    L = np.squeeze(control.frequency_response(loop, 2 * np.pi * hz).complex)
+    # from the loop's response on a dense grid (its crossover is far below the resonance),
+    # C (zI - A)^-1 B of python-control's state space at every point at once
+    hz = np.geomspace(1e-3, 0.5 / dt, 2000)
+    z = np.exp(2j * np.pi * hz * dt)
+    L = (C @ np.linalg.solve(z[:, None, None] * np.eye(len(A)) - A, B))[:, 0, 0]
     pm = float(_grid_margins(L)[1])
     unit = np.flatnonzero((np.abs(L[1:]) - 1) * (np.abs(L[:-1]) - 1) <= 0)
     crossover = float(hz[unit[-1] + 1]) if unit.size else float("nan")
@@ -197,7 +200,11 @@ def tune_dob(
     at most ``GAIN_MARGIN_COST`` dB: a :class:`~hmid.control.tuning.Tuning` with its
     ``observer``; :class:`TuningError` if none on the grid does."""
     loop = delayed(plant, delay)
-    floor = min(gain_margin_db, pd_gain_margin_db(loop, pd, dt) - GAIN_MARGIN_COST)
+    own = pd_gain_margin_db(loop, pd, dt)
+    if own <= GAIN_MARGIN_COST:
+        raise TuningError(f"the PD's own loop has {own:.1f} dB of gain margin here: no "
+                          "disturbance observer keeps one")  # fmt: skip
+    floor = min(gain_margin_db, own - GAIN_MARGIN_COST)
     chosen = None
     for bandwidth in BANDWIDTH_GRID:  # upwards, to the first that fails: margins are not
         tuning = observer_report(loop, pd, observer(plant, bandwidth, dt, order), dt)  # monotone
