@@ -94,7 +94,7 @@ def pid_poles(plant: Any, kp: float, ki: float, kd: float, tf: float, dt: float)
     return np.linalg.eigvals(pid_matrix(A, B, C, kp, ki, kd, tf, dt))
 
 
-def _grid_margins(L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def grid_margins(L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(gain margin dB, phase margin deg) of each loop response along ``L``'s last axis (a
     phase below -180 deg at a gain crossover counts as a negative margin)."""
     re, im, mag = L.real, L.imag, np.abs(L)
@@ -127,7 +127,7 @@ def tune_pid(
     passing: list[tuple[float, float, float]] = []
     for kd in KD_GRID * static:
         L = (kps[:, None, None] + kd * d + kis[None, :, None] * i) * g
-        gm, pm = _grid_margins(L)
+        gm, pm = grid_margins(L)
         for p, q in zip(*np.nonzero((gm >= gain_margin_db) & (pm >= phase_margin_deg)),
                         strict=True):  # fmt: skip
             passing.append((float(kps[p]), float(kis[q]), float(kd)))

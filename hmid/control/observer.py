@@ -52,7 +52,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from hmid.control.controllers import PD
-from hmid.control.integral import _grid_margins, delayed
+from hmid.control.integral import delayed, grid_margins
 from hmid.control.tuning import Tuning, TuningError, pd_transfer, resonance
 
 BANDWIDTH_GRID = np.geomspace(0.2, 100.0, 55)  # Hz
@@ -165,7 +165,7 @@ def observer_report(plant: Any, pd: Tuning, obs: Observer, dt: float) -> Tuning:
     hz = np.geomspace(1e-3, 0.5 / dt, 2000)
     z = np.exp(2j * np.pi * hz * dt)
     L = (C @ np.linalg.solve(z[:, None, None] * np.eye(len(A)) - A, B))[:, 0, 0]
-    pm = float(_grid_margins(L)[1])
+    pm = float(grid_margins(L)[1])
     unit = np.flatnonzero((np.abs(L[1:]) - 1) * (np.abs(L[:-1]) - 1) <= 0)
     crossover = float(hz[unit[-1] + 1]) if unit.size else float("nan")
     poles = np.asarray(control.feedback(loop, 1).poles())
