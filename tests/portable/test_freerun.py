@@ -242,3 +242,31 @@ def test_the_free_runs_on_their_rows_alone_equal_those_on_the_whole_signals():
         assert one.log == other.log and one.diverged_at == other.diverged_at
         for field in ("t", "x_measured", "x_simulated", "explained_measured", "band"):
             np.testing.assert_array_equal(getattr(one, field), getattr(other, field))
+
+
+def test_a_stored_program_is_read_back_without_tracing_and_a_damaged_one_is_traced_again(
+    tmp_path,
+):
+    import jax
+
+    from hmid.portable.freerun.stored import stored
+
+    traced = []
+
+    def program():  # a new function each time, as in a new process (JAX keeps its own traces)
+        def f(x, k):
+            traced.append(1)
+            return jax.lax.fori_loop(0, 3, lambda i, y: y * k + 1.0, x)
+
+        return f
+
+    x, k = np.linspace(0.0, 1.0, 5), np.float64(1.5)
+    with jax.enable_x64(True):
+        first = np.asarray(stored(program(), "f", "shape", tmp_path)(x, k))
+        again = np.asarray(stored(program(), "f", "shape", tmp_path)(x, k))
+        assert len(traced) == 1 and np.array_equal(first, again)
+        (path,) = tmp_path.glob("freerun-programs/f-*.pkl")
+        path.write_bytes(path.read_bytes()[:-5])
+        damaged = np.asarray(stored(program(), "f", "shape", tmp_path)(x, k))
+        assert len(traced) == 2 and np.array_equal(first, damaged)
+        assert np.array_equal(first, np.asarray(jax.jit(program())(x, k)))

@@ -47,15 +47,14 @@ def coefficient_draws(model, sim: Simulator, n: int, seed: int) -> list[Coeffici
     n_terms = len(model.terms)
     signs = np.array([t.sign for t in model.terms], dtype=float)
     rng = np.random.default_rng(seed)
-    posterior = model.posterior
-    if posterior is not None:
-        post = posterior.posterior
+    post = posterior_draws(model)
+    if post is not None:
         names = [t.name for t in model.terms]
         arms = [t for t in model.terms if isinstance(t, MemoryTerm)]
         tau_names = ["tau"] if len(arms) == 1 else [f"tau_{i + 1}" for i in range(len(arms))]
         if not all(v in post for v in (*names, *tau_names)):
             return None
-        flat = {v: np.asarray(post[v]).reshape(-1) for v in (*names, *tau_names)}
+        flat = {v: np.asarray(post[v], dtype=float).reshape(-1) for v in (*names, *tau_names)}
         pick = rng.choice(len(flat[names[0]]), size=n, replace=False)
         out = []
         for i in pick:
@@ -76,6 +75,15 @@ def coefficient_draws(model, sim: Simulator, n: int, seed: int) -> list[Coeffici
         draw[:n_terms] = signs * row
         out.append((draw, cl, taus, lags))
     return out
+
+
+def posterior_draws(model):
+    """The model's posterior draws by name (each (chains, draws)), None where it has none: the
+    draws it holds in memory as they are (the fit's, in a run: ArviZ, a second's import, is
+    the report's), else its file's."""
+    if model.draws is not None:
+        return model.draws
+    return None if model.posterior is None else model.posterior.posterior
 
 
 def disturbances(model, n: int, draws: int, rng) -> np.ndarray:

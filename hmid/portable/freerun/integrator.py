@@ -25,6 +25,7 @@ import numpy as np
 
 from hmid.portable.freerun.equation import Equation, equation, free_run_v0
 from hmid.portable.freerun.program import Program, Shape, vector_field
+from hmid.portable.freerun.stored import stored
 
 #: Blocks are padded to a multiple of this many samples.
 PAD = 4096
@@ -50,9 +51,10 @@ def padded(values: np.ndarray, size: int | None = None) -> np.ndarray:
 
 @lru_cache(maxsize=16)
 def compiled(shape: Shape):
-    """``(run, draws)`` for programs of ``shape``, jitted. ``run(program, dts, count, y0, table,
-    noise, coef, taus, lag_times) -> (states, explained, ok)`` at every sample (``count``: how
-    many of the padded samples are real; NaN after a solver that stopped); ``draws`` the same
+    """``(run, draws)`` for programs of ``shape``, jitted (and kept on disk: :mod:`.stored`).
+    ``run(program, dts, count, y0, table, noise, coef, taus, lag_times) -> (states, explained,
+    ok)`` at every sample (``count``: how many of the padded samples are real; NaN after a
+    solver that stopped); ``draws`` the same
     arguments with a row of ``noise``, ``coef`` and ``taus`` per draw, and a stride, -> the
     position (draws, samples) at every stride-th sample."""
     import diffrax
@@ -101,7 +103,7 @@ def compiled(shape: Shape):
         return jax.lax.fori_loop(0, steps, step, (y0, state, xs))[2]
 
     draws = jax.vmap(one_draw, in_axes=(None, None, None, None, None, 0, 0, 0, None, None))
-    return jax.jit(run), jax.jit(draws)
+    return stored(run, "run", shape), stored(draws, "draws", shape)
 
 
 def _hermite(ts, ys, slopes, grid):

@@ -21,6 +21,7 @@ from hmid.portable.freerun.band import (
     coefficient_draws,
     disturbances,
     drifts,
+    posterior_draws,
     quantile_band,
 )
 from hmid.portable.freerun.equation import NotSimulable
@@ -109,7 +110,8 @@ def simulate_signals(
     pieces: list[np.ndarray] = []
     if draws and spans:
         sampled = coefficient_draws(model, sim, draws, seed)
-        band = "posterior draws" if model.posterior is not None else "coefficient covariance"
+        has = posterior_draws(model) is not None
+        band = "posterior draws" if has else "coefficient covariance"
         if sampled is None:
             sampled, band = [sim.coefficients()] * draws, "no coefficient uncertainty in the file"
         pieces = calibration_pieces(spans, calibration) if held is None else held.pieces
