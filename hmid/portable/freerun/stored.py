@@ -11,10 +11,10 @@ next process, which then calls it without tracing it.
 
 Every call goes through the exported program, whether just traced or read back, so a run gives
 the same numbers either way. A file is keyed by the program's name, its
-:class:`~hmid.portable.freerun.program.Shape`, its arguments' shapes and dtypes, the source of
-the modules that trace it and the versions of the libraries that do; one that cannot be read is
-traced again and rewritten. Without a compilation-cache folder (tests, a notebook) the programs
-are jitted as they are, and nothing is written.
+:class:`~hmid.portable.freerun.program.Shape`, its arguments' shapes and dtypes, the platform,
+the source of the modules that trace it and the versions of the libraries that do; one that
+cannot be read is traced again and rewritten. Without a compilation-cache folder (tests, a
+notebook) the programs are jitted as they are, and nothing is written.
 """
 
 from __future__ import annotations
@@ -87,7 +87,9 @@ class _Stored:
 
 def _digest(shape: str, key: tuple) -> str:
     """What a program's file is keyed by, hashed (see the module's docstring)."""
-    digest = hashlib.sha256(f"{shape} {key}".encode())
+    import jax
+
+    digest = hashlib.sha256(f"{shape} {key} {jax.default_backend()}".encode())
     here = Path(__file__).parent
     for source in SOURCES:
         digest.update((here / source).read_bytes())
