@@ -112,6 +112,21 @@ def test_runs_over_draws_in_one_call_equal_one_run_each():
         assert np.max(np.abs(row - one)) < 3e-3 * np.max(np.abs(one))
 
 
+def test_draws_at_steps_of_several_samples_are_finite_to_the_last_sample_on_a_step():
+    # 501 samples: the last lies on a step of 5 (and of 4); it was NaN (the unused slot after
+    # the last step, times 0), which counted every draw as diverging
+    model = _model([MASS, DAMPER, SPRING], [2.0, 3.0, 150.0])
+    sim = model.simulator
+    t = np.linspace(0.0, 1.0, 501)
+    u = {"u": np.sin(7 * t)}
+    exact = sim.integrate(t, u, 0.01).x
+    for stride in (4, 5):
+        fixed = sim.positions(t, u, 0.01, 0.0, [], [sim.coefficients()], np.zeros((1, len(t))),
+                              stride=stride)[0]  # fmt: skip
+        assert np.all(np.isfinite(fixed))
+        assert np.max(np.abs(fixed - exact)) < 1e-3 * np.ptp(exact)
+
+
 def test_a_rig_that_imposes_its_position_has_no_free_run():
     # the pneumatic seals' balance: force = A P + F0 + Fc sign(v), no inertial term
     terms = [{"kind": "channel", "name": "A", "channel": "u"}, {"kind": "constant", "name": "F0"},
