@@ -112,6 +112,21 @@ def test_runs_over_draws_in_one_call_equal_one_run_each():
         assert np.max(np.abs(row - one)) < 3e-3 * np.max(np.abs(one))
 
 
+def test_draws_at_steps_of_several_samples_are_finite_to_the_last_sample_on_a_step():
+    # 501 samples: the last lies on a step of 5 (and of 4); it was NaN (the unused slot after
+    # the last step, times 0), which counted every draw as diverging
+    model = _model([MASS, DAMPER, SPRING], [2.0, 3.0, 150.0])
+    sim = model.simulator
+    t = np.linspace(0.0, 1.0, 501)
+    u = {"u": np.sin(7 * t)}
+    exact = sim.integrate(t, u, 0.01).x
+    for stride in (4, 5):
+        fixed = sim.positions(t, u, 0.01, 0.0, [], [sim.coefficients()], np.zeros((1, len(t))),
+                              stride=stride)[0]  # fmt: skip
+        assert np.all(np.isfinite(fixed))
+        assert np.max(np.abs(fixed - exact)) < 1e-3 * np.ptp(exact)
+
+
 def test_a_rig_that_imposes_its_position_has_no_free_run():
     # the pneumatic seals' balance: force = A P + F0 + Fc sign(v), no inertial term
     terms = [{"kind": "channel", "name": "A", "channel": "u"}, {"kind": "constant", "name": "F0"},
@@ -242,3 +257,31 @@ def test_the_free_runs_on_their_rows_alone_equal_those_on_the_whole_signals():
         assert one.log == other.log and one.diverged_at == other.diverged_at
         for field in ("t", "x_measured", "x_simulated", "explained_measured", "band"):
             np.testing.assert_array_equal(getattr(one, field), getattr(other, field))
+
+
+def test_a_stored_program_is_read_back_without_tracing_and_a_damaged_one_is_traced_again(
+    tmp_path,
+):
+    import jax
+
+    from hmid.portable.freerun.stored import stored
+
+    traced = []
+
+    def program():  # a new function each time, as in a new process (JAX keeps its own traces)
+        def f(x, k):
+            traced.append(1)
+            return jax.lax.fori_loop(0, 3, lambda i, y: y * k + 1.0, x)
+
+        return f
+
+    x, k = np.linspace(0.0, 1.0, 5), np.float64(1.5)
+    with jax.enable_x64(True):
+        first = np.asarray(stored(program(), "f", "shape", tmp_path)(x, k))
+        again = np.asarray(stored(program(), "f", "shape", tmp_path)(x, k))
+        assert len(traced) == 1 and np.array_equal(first, again)
+        (path,) = tmp_path.glob("freerun-programs/f-*.pkl")
+        path.write_bytes(path.read_bytes()[:-5])
+        damaged = np.asarray(stored(program(), "f", "shape", tmp_path)(x, k))
+        assert len(traced) == 2 and np.array_equal(first, damaged)
+        assert np.array_equal(first, np.asarray(jax.jit(program())(x, k)))

@@ -25,6 +25,7 @@ import numpy as np
 
 from hmid.portable.freerun.equation import Equation, equation, free_run_v0
 from hmid.portable.freerun.program import Program, Shape, vector_field
+from hmid.portable.freerun.stored import stored
 
 #: Blocks are padded to a multiple of this many samples.
 PAD = 4096
@@ -50,9 +51,10 @@ def padded(values: np.ndarray, size: int | None = None) -> np.ndarray:
 
 @lru_cache(maxsize=16)
 def compiled(shape: Shape):
-    """``(run, draws)`` for programs of ``shape``, jitted. ``run(program, dts, count, y0, table,
-    noise, coef, taus, lag_times) -> (states, explained, ok)`` at every sample (``count``: how
-    many of the padded samples are real; NaN after a solver that stopped); ``draws`` the same
+    """``(run, draws)`` for programs of ``shape``, jitted (and kept on disk: :mod:`.stored`).
+    ``run(program, dts, count, y0, table, noise, coef, taus, lag_times) -> (states, explained,
+    ok)`` at every sample (``count``: how many of the padded samples are real; NaN after a
+    solver that stopped); ``draws`` the same
     arguments with a row of ``noise``, ``coef`` and ``taus`` per draw, and a stride, -> the
     position (draws, samples) at every stride-th sample."""
     import diffrax
@@ -101,7 +103,7 @@ def compiled(shape: Shape):
         return jax.lax.fori_loop(0, steps, step, (y0, state, xs))[2]
 
     draws = jax.vmap(one_draw, in_axes=(None, None, None, None, None, 0, 0, 0, None, None))
-    return jax.jit(run), jax.jit(draws)
+    return stored(run, "run", shape), stored(draws, "draws", shape)
 
 
 def _hermite(ts, ys, slopes, grid):
@@ -208,7 +210,6 @@ class Simulator:
         the balance's model side at ``t`` (default none); ``size``: the samples to pad to
         (blocks of one size share one compiled program)."""
         import jax
-        import jax.numpy as jnp
 
         dts, count, y0, values = self._block(t, inputs, x0, v0, memory0, size)
         n = int(count)
@@ -217,8 +218,10 @@ class Simulator:
             noise[:n] = disturbance
         coef, taus, lag_times = self._padded(coefficients or self.coefficients())
         with jax.enable_x64(True):
-            arrays = (self.program, dts, count, y0, values, noise, coef, taus, lag_times)
-            ys, force, ok = self.run(*jax.tree.map(jnp.asarray, arrays))
+            # numpy arguments straight to the jitted program: its own transfer is a fraction of
+            # ``jnp.asarray``'s dispatch per array (tens of µs each, 4,000 a demo)
+            ys, force, ok = self.run(self.program, dts, count, y0, values, noise, coef, taus,
+                                     lag_times)  # fmt: skip
             ys, force = np.asarray(ys)[:n], np.asarray(force)[:n]
         output = any(k == "accel" for k, _, _ in self.equation.lhs)
         return FreeTrajectory(
@@ -232,7 +235,6 @@ class Simulator:
         row, in one vectorised call, at fixed steps of ``stride`` samples (the position
         linear between them)."""
         import jax
-        import jax.numpy as jnp
 
         dts, count, y0, values = self._block(t, inputs, x0, v0, memory0, size)
         n = int(count)
@@ -241,9 +243,8 @@ class Simulator:
         noise = np.zeros((len(draws), len(dts)))
         noise[:, :n] = disturbances
         with jax.enable_x64(True):
-            arrays = (self.program, dts, count, y0, values, noise, coef, taus, rows[0][2],
-                      np.int32(stride))  # fmt: skip
-            xs = np.asarray(self.draws(*jax.tree.map(jnp.asarray, arrays)))
+            xs = np.asarray(self.draws(self.program, dts, count, y0, values, noise, coef, taus,
+                                       rows[0][2], np.int32(stride)))  # fmt: skip
         if stride == 1:
             return xs[:, :n]
         # linear between the steps, every row at once (the steps lie every stride samples)
@@ -251,7 +252,8 @@ class Simulator:
         w = (np.arange(n) - k * stride) / np.where(k * stride + stride <= n - 1, stride,
                                                   np.maximum(n - 1 - k * stride, 1))  # fmt: skip
         nxt = np.minimum(k + 1, xs.shape[1] - 1)
-        return xs[:, k] * (1 - w) + xs[:, nxt] * w
+        # a sample on a step is that step's position (the slot after the last step is NaN)
+        return np.where(w == 0, xs[:, k], xs[:, k] * (1 - w) + xs[:, nxt] * w)
 
 
 def simulator(model, v0: float | None = None) -> Simulator:

@@ -1,0 +1,101 @@
+"""The free run's traced programs kept on disk (``jax.export``), beside JAX's compiled ones.
+
+JAX's persistent cache (:mod:`hmid.pipeline.compilation`) keeps a program once compiled, but a
+new process still traces it before it can look it up: for the free run's two programs (diffrax's
+error-controlled solve and the band's fixed steps) that was ~2 s of the demo's free-run stage,
+more than running its six models' error-controlled runs. So each program is exported (its
+StableHLO, :func:`jax.export.export`) the first time it is traced for a set of argument shapes,
+written beside the compiled programs (a checksummed pickle, as the stage cache's entries:
+``Exported.serialize`` needs flatbuffers, which hmid does not depend on), and read back by the
+next process, which then calls it without tracing it.
+
+Every call goes through the exported program, whether just traced or read back, so a run gives
+the same numbers either way. A file is keyed by the program's name, its
+:class:`~hmid.portable.freerun.program.Shape`, its arguments' shapes and dtypes, the platform,
+the source of the modules that trace it and the versions of the libraries that do; one that
+cannot be read is traced again and rewritten. Without a compilation-cache folder (tests, a
+notebook) the programs are jitted as they are, and nothing is written.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+from collections.abc import Callable
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hmid.pipeline.cache import StaleEntry, read_entry, write_entry
+
+#: The modules whose source a traced program depends on (besides the libraries)
+SOURCES = ("integrator.py", "program.py")
+LIBRARIES = ("jax", "jaxlib", "diffrax", "equinox")
+
+
+def stored(fn: Callable[..., Any], name: str, shape: object,
+           folder: Path | None = None) -> Callable[..., Any]:  # fmt: skip
+    """``fn`` jitted; with a compilation-cache folder set (or ``folder``), exported and kept
+    there (see the module's docstring)."""
+    import jax
+
+    folder = folder or jax.config.jax_compilation_cache_dir  # type: ignore[attr-defined]
+    if not folder:
+        return jax.jit(fn)
+    return _Stored(fn, name, repr(shape), Path(folder) / "freerun-programs")
+
+
+class _Stored:
+    """``fn``, exported once per set of argument shapes, called through the export."""
+
+    def __init__(self, fn: Callable[..., Any], name: str, shape: str, folder: Path) -> None:
+        self.fn, self.name, self.shape, self.folder = fn, name, shape, folder
+        self.calls: dict[tuple, Callable[..., Any]] = {}
+
+    def __call__(self, *args):
+        import jax
+
+        specs = [jax.ShapeDtypeStruct(np.shape(a), np.asarray(a).dtype)
+                 for a in jax.tree.leaves(args)]  # fmt: skip
+        key = tuple((s.shape, s.dtype.str) for s in specs)
+        call = self.calls.get(key)
+        if call is None:
+            call = self.calls[key] = jax.jit(self._exported(args, key).call)
+        return call(*args)
+
+    def _exported(self, args, key):
+        import jax
+        from jax import export
+
+        path = self.folder / f"{self.name}-{_digest(self.shape, key)}.pkl"
+        try:
+            return read_entry(path)
+        except StaleEntry:  # none yet, or damaged: traced again, and rewritten
+            pass
+        exported = export.export(jax.jit(self.fn))(*jax.tree.map(np.asarray, args))
+        # pickled (checksummed, as the stage cache): jax's own ``serialize`` needs flatbuffers,
+        # which hmid does not depend on; the VJP, a closure, is not needed to call it
+        exported = dataclasses.replace(exported, _get_vjp=None)
+        try:
+            write_entry(path, exported)
+        except OSError:  # a folder that cannot be written: traced in every process, as before
+            pass
+        return exported
+
+
+def _digest(shape: str, key: tuple) -> str:
+    """What a program's file is keyed by, hashed (see the module's docstring)."""
+    import jax
+
+    digest = hashlib.sha256(f"{shape} {key} {jax.default_backend()}".encode())
+    here = Path(__file__).parent
+    for source in SOURCES:
+        digest.update((here / source).read_bytes())
+    for library in LIBRARIES:
+        try:
+            digest.update(f"{library}=={metadata.version(library)}".encode())
+        except metadata.PackageNotFoundError:
+            digest.update(f"{library} absent".encode())
+    return digest.hexdigest()[:24]
