@@ -280,7 +280,7 @@ def test_a_stored_program_is_read_back_without_tracing_and_a_damaged_one_is_trac
         first = np.asarray(stored(program(), "f", "shape", tmp_path)(x, k))
         again = np.asarray(stored(program(), "f", "shape", tmp_path)(x, k))
         assert len(traced) == 1 and np.array_equal(first, again)
-        (path,) = tmp_path.glob("freerun-programs/f-*.pkl")
+        (path,) = tmp_path.glob("freerun-programs/f-*.exported")
         path.write_bytes(path.read_bytes()[:-5])
         damaged = np.asarray(stored(program(), "f", "shape", tmp_path)(x, k))
         assert len(traced) == 2 and np.array_equal(first, damaged)

@@ -5,9 +5,9 @@ new process still traces it before it can look it up: for the free run's two pro
 error-controlled solve and the band's fixed steps) that was ~2 s of the demo's free-run stage,
 more than running its six models' error-controlled runs. So each program is exported (its
 StableHLO, :func:`jax.export.export`) the first time it is traced for a set of argument shapes,
-written beside the compiled programs (a checksummed pickle, as the stage cache's entries:
-``Exported.serialize`` needs flatbuffers, which hmid does not depend on), and read back by the
-next process, which then calls it without tracing it.
+written beside the compiled programs (JAX's own serialisation, :meth:`Exported.serialize`, in a
+checksummed entry as the stage cache's), and read back by the next process, which then calls it
+without tracing it.
 
 Every call goes through the exported program, whether just traced or read back, so a run gives
 the same numbers either way. A file is keyed by the program's name, its
@@ -19,7 +19,6 @@ notebook) the programs are jitted as they are, and nothing is written.
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 from collections.abc import Callable
 from importlib import metadata
@@ -69,17 +68,16 @@ class _Stored:
         import jax
         from jax import export
 
-        path = self.folder / f"{self.name}-{_digest(self.shape, key)}.pkl"
+        path = self.folder / f"{self.name}-{_digest(self.shape, key)}.exported"
         try:
-            return read_entry(path)
+            return export.deserialize(bytearray(read_entry(path)))
         except StaleEntry:  # none yet, or damaged: traced again, and rewritten
             pass
         exported = export.export(jax.jit(self.fn))(*jax.tree.map(np.asarray, args))
-        # pickled (checksummed, as the stage cache): jax's own ``serialize`` needs flatbuffers,
-        # which hmid does not depend on; the VJP, a closure, is not needed to call it
-        exported = dataclasses.replace(exported, _get_vjp=None)
         try:
-            write_entry(path, exported)
+            # no derivatives: a free run is never differentiated, and their closures do not
+            # serialise
+            write_entry(path, bytes(exported.serialize(vjp_order=0)))
         except OSError:  # a folder that cannot be written: traced in every process, as before
             pass
         return exported
