@@ -1,10 +1,11 @@
 """The compiled integrators: one error-controlled run, and fixed-step runs over many draws.
 
-A model's free run is diffrax's Tsit5 (5th order) with a PID step-size controller (rtol 1e-6)
-over the block, its dense output read at the log's samples. The band's draws each carry a
-disturbance force sampled at the samples, which has a kink at every sample where an
-error-controlled step would shrink to nothing: they take diffrax's Tsit5 steps of exactly one
-sample (``solver.step`` in a loop), vectorised over the draws.
+A model's free run is Tsit5 (5th order, diffrax's tableau, its stages unrolled: :func:`tsit5`)
+with diffrax's PID step-size controller (rtol 1e-6) over the block, its dense output read at
+the log's samples. The band's draws each carry a disturbance force sampled at the samples,
+which has a kink at every sample where an error-controlled step would shrink to nothing: they
+take diffrax's Tsit5 steps of exactly one sample (``solver.step`` in a loop), vectorised over
+the draws (there, unrolling the stages saves nothing: 64 draws' steps cost their arithmetic).
 
 Both are compiled once per :class:`~hmid.portable.freerun.program.Shape` (``lru_cache``) and
 are pure XLA programs, without host callbacks (no ``SaveAt(ts=...)``, whose checks are
@@ -37,6 +38,54 @@ RTOL, ATOL, STEPS_PER_SAMPLE = 1e-6, 1e-9, 2
 MAX_STEP = 8.0
 
 
+@lru_cache(maxsize=1)
+def tsit5():
+    """Tsit5 as a diffrax solver whose step is its six stages written out, from diffrax's own
+    Butcher tableau (``diffrax.Tsit5.tableau``). diffrax's generic Runge-Kutta step runs its
+    stages in a loop (one code path for explicit, implicit and IMEX tableaus), and on XLA:CPU a
+    step of these 2-8 wide states costs the kernels it launches, not their arithmetic: written
+    out, a step launches about half as many (the linear stage's 40 s log 43 -> 31 ms of CPU;
+    the steps agree with ``diffrax.Tsit5`` to rounding). Implicit tableaus (Kvaerno3/4/5) were
+    measured on the linear stage's friction, stiff near v = 0: 12,000-31,000 steps at about
+    100 us each, 15-30x slower than this (``benchmarks/README.md``)."""
+    import diffrax
+    import jax
+
+    class UnrolledTsit5(diffrax.AbstractAdaptiveSolver):
+        # class attributes, not fields (unannotated): a solver with no fields is hashable
+        tableau = diffrax.Tsit5.tableau
+        term_structure = diffrax.AbstractTerm
+        interpolation_cls = diffrax.LocalLinearInterpolation
+
+        def order(self, terms):
+            return 5
+
+        def error_order(self, terms):
+            return 5
+
+        def init(self, terms, t0, t1, y0, args):
+            return terms.vf(t0, y0, args)  # first same as last: a step's f(t0, y0)
+
+        def func(self, terms, t0, y0, args):
+            return terms.vf(t0, y0, args)
+
+        def step(self, terms, t0, t1, y0, args, f0, made_jump):
+            tab = self.tableau
+            if made_jump is not False:  # the previous step's last stage is not f(t0, y0)
+                f0 = jax.lax.cond(made_jump, lambda: terms.vf(t0, y0, args), lambda: f0)
+            h = t1 - t0
+            ks = [f0]
+            for c, row in zip(tab.c, tab.a_lower, strict=True):
+                y = y0 + h * sum(float(a) * k for a, k in zip(row, ks) if a != 0)
+                ks.append(terms.vf(t0 + float(c) * h, y, args))
+            # the last stage is at (t1, y1) (first same as last)
+            error = h * sum(float(b) * k for b, k in zip(tab.b_error, ks) if b != 0)
+            return y, error, {"y0": y0, "y1": y}, ks[-1], diffrax.RESULTS.successful
+
+    assert UnrolledTsit5.tableau.fsal and UnrolledTsit5.tableau.ssal
+    return UnrolledTsit5()
+
+
 def padded_size(n: int) -> int:
     """``n`` samples padded: the next multiple of :data:`PAD`."""
     return -(-n // PAD) * PAD
@@ -63,7 +112,7 @@ def compiled(shape: Shape):
 
     prepare, rhs, explained = vector_field(shape)
     term = diffrax.ODETerm(rhs)
-    solver = diffrax.Tsit5()
+    solver, fixed = tsit5(), diffrax.Tsit5()  # the draws' steps, vectorised, cost arithmetic
 
     def run(program, dts, count, y0, table, noise, coef, taus, lag_times):
         args = (prepare(program, dts, count, coef, taus, lag_times), table, noise)
@@ -91,14 +140,14 @@ def compiled(shape: Shape):
 
     def one_draw(program, dts, count, y0, table, noise, coef, taus, lag_times, stride):
         args = (prepare(program, dts, count, coef, taus, lag_times), table, noise)
-        state = solver.init(term, 0.0, 1.0, y0, args)
+        state = fixed.init(term, 0.0, 1.0, y0, args)
         end = (count - 1).astype(dts.dtype)
 
         def step(k, carry):
             y, state, xs = carry
             s = (k * stride).astype(dts.dtype)
-            y, _, _, state, _ = solver.step(term, s, jnp.minimum(s + stride, end), y, args,
-                                            state, made_jump=False)  # fmt: skip
+            y, _, _, state, _ = fixed.step(term, s, jnp.minimum(s + stride, end), y, args,
+                                           state, made_jump=False)  # fmt: skip
             return y, state, xs.at[k + 1].set(y[0])
 
         xs = jnp.full(dts.shape[0], jnp.nan).at[0].set(y0[0])
