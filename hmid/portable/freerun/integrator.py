@@ -34,10 +34,11 @@ PAD = 4096
 #: per two to six samples).
 RTOL, ATOL, STEPS_PER_SAMPLE = 1e-6, 1e-9, 2
 #: The longest step, in samples: the states between steps are interpolated (:func:`_hermite`),
-#: as accurate as the steps over sixteen samples (the cubic alone was over eight: on the linear
-#: stage, where half the steps were at the bound, sixteen took 8,233 steps to 6,200; 32 saved
-#: little more and missed a tight solution by 2e-6 of the range, 16 by 1.5e-7)
-MAX_STEP = 16.0
+#: as accurate as the steps over eight samples. Sixteen took the linear stage's bench log from
+#: 8,233 steps to ~6,200 (-27 % of its time) but the shipped linear stage's free run (v0 =
+#: 0.1 mm/s) then missed a tight solution's RMSE (rtol 1e-10, one-sample steps) by 3.4 %, where
+#: eight misses it by 0.7 % (and the cubic reading of main by 1.6 %)
+MAX_STEP = 8.0
 
 
 @lru_cache(maxsize=1)
@@ -169,14 +170,13 @@ def compiled(shape: Shape):
 def _hermite(ts, ys, slopes, grid, curvature):
     """The states at ``grid`` from the accepted steps' values and slopes: cubic Hermite between
     steps (4th-order local error, as Tsit5's own dense output), the position quintic with its
-    second derivative ``curvature`` too (6th-order: the steps of up to :data:`MAX_STEP`
-    samples read a closed-form oscillation at ``omega h = 0.26`` within 1e-8 of its amplitude,
-    the cubic within 1.5e-5; the velocity's second derivative would cost a vector field
-    evaluation per step), one binary search for every
-    sample (``SaveAt(ts=...)`` checks its times with a host callback, and evaluating diffrax's
-    dense output sample by sample costs more than the solve; a search by sorting the steps and
-    the samples together took 16 ms of a 40 s log's 76 ms, the binary search 1 ms). Steps never
-    taken are inf: samples past the last step are NaN."""
+    second derivative ``curvature`` too (6th-order; the velocity's would cost a vector field
+    evaluation per step). On the bench's SLS log the quintic took the miss of a tight solution
+    from 3.8e-6 to 7.7e-7 of the range. One binary search for every sample (``SaveAt(ts=...)``
+    checks its times with a host callback, and evaluating diffrax's dense output sample by
+    sample costs more than the solve; a search by sorting the steps and the samples together
+    took 16 ms of a 40 s log's 76 ms, the binary search 1 ms). Steps never taken are inf:
+    samples past the last step are NaN."""
     import jax.numpy as jnp
 
     ts = jnp.where(jnp.isfinite(ts), ts, jnp.inf)
