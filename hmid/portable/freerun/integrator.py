@@ -49,8 +49,8 @@ def tsit5():
     step of these 2-8 wide states costs the kernels it launches, not their arithmetic: written
     out, a step launches about half as many (the linear stage's 40 s log 43 -> 31 ms of CPU;
     the steps agree with ``diffrax.Tsit5`` to rounding). Implicit tableaus (Kvaerno3/4/5) were
-    measured on the linear stage's friction, stiff near v = 0: 12,000-31,000 steps at about
-    100 us each, 15-30x slower than this (``benchmarks/README.md``)."""
+    measured on the linear stage's friction, stiff near v = 0: 12,000-31,000 steps at 40-85 us
+    each, 9-20x slower than Tsit5 (``benchmarks/README.md``)."""
     import diffrax
     import jax
 
