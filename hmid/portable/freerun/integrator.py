@@ -1,10 +1,11 @@
 """The compiled integrators: one error-controlled run, and fixed-step runs over many draws.
 
-A model's free run is diffrax's Tsit5 (5th order) with a PID step-size controller (rtol 1e-6)
-over the block, its dense output read at the log's samples. The band's draws each carry a
-disturbance force sampled at the samples, which has a kink at every sample where an
-error-controlled step would shrink to nothing: they take diffrax's Tsit5 steps of exactly one
-sample (``solver.step`` in a loop), vectorised over the draws.
+A model's free run is Tsit5 (5th order, diffrax's tableau, its stages unrolled: :func:`tsit5`)
+with diffrax's PID step-size controller (rtol 1e-6) over the block, its dense output read at
+the log's samples. The band's draws each carry a disturbance force sampled at the samples,
+which has a kink at every sample where an error-controlled step would shrink to nothing: they
+take diffrax's Tsit5 steps of exactly one sample (``solver.step`` in a loop), vectorised over
+the draws (there, unrolling the stages saves nothing: 64 draws' steps cost their arithmetic).
 
 Both are compiled once per :class:`~hmid.portable.freerun.program.Shape` (``lru_cache``) and
 are pure XLA programs, without host callbacks (no ``SaveAt(ts=...)``, whose checks are
@@ -33,9 +34,60 @@ PAD = 4096
 #: each step's state is kept, so this sizes the program's arrays (a log takes about one step
 #: per two to six samples).
 RTOL, ATOL, STEPS_PER_SAMPLE = 1e-6, 1e-9, 2
-#: The longest step, in samples: the states between steps are interpolated (cubic Hermite,
-#: from each step's state and slope), as accurate as the steps over eight samples
+#: The longest step, in samples: the states between steps are interpolated (:func:`_hermite`),
+#: as accurate as the steps over eight samples. Sixteen took the linear stage's bench log from
+#: 8,233 steps to ~6,200 (-27 % of its time) but the shipped linear stage's free run (v0 =
+#: 0.1 mm/s) then missed a tight solution's RMSE (rtol 1e-10, one-sample steps) by 3.4 %, where
+#: eight misses it by 0.7 % (and the cubic reading of main by 1.6 %)
 MAX_STEP = 8.0
+
+
+@lru_cache(maxsize=1)
+def tsit5():
+    """Tsit5 as a diffrax solver whose step is its six stages written out, from diffrax's own
+    Butcher tableau (``diffrax.Tsit5.tableau``). diffrax's generic Runge-Kutta step runs its
+    stages in a loop (one code path for explicit, implicit and IMEX tableaus), and on XLA:CPU a
+    step of these 2-8 wide states costs the kernels it launches, not their arithmetic: written
+    out, a step launches about half as many (the linear stage's 40 s log 43 -> 31 ms of CPU;
+    the steps agree with ``diffrax.Tsit5`` to rounding). Implicit tableaus (Kvaerno3/4/5) were
+    measured on the linear stage's friction, stiff near v = 0: 12,000-31,000 steps at 40-85 us
+    each, 9-20x slower than Tsit5 (``benchmarks/README.md``)."""
+    import diffrax
+    import jax
+
+    class UnrolledTsit5(diffrax.AbstractAdaptiveSolver):
+        # class attributes, not fields (unannotated): a solver with no fields is hashable
+        tableau = diffrax.Tsit5.tableau
+        term_structure = diffrax.AbstractTerm
+        interpolation_cls = diffrax.LocalLinearInterpolation
+
+        def order(self, terms):
+            return 5
+
+        def error_order(self, terms):
+            return 5
+
+        def init(self, terms, t0, t1, y0, args):
+            return terms.vf(t0, y0, args)  # first same as last: a step's f(t0, y0)
+
+        def func(self, terms, t0, y0, args):
+            return terms.vf(t0, y0, args)
+
+        def step(self, terms, t0, t1, y0, args, f0, made_jump):
+            tab = self.tableau
+            if made_jump is not False:  # the previous step's last stage is not f(t0, y0)
+                f0 = jax.lax.cond(made_jump, lambda: terms.vf(t0, y0, args), lambda: f0)
+            h = t1 - t0
+            ks = [f0]
+            for c, row in zip(tab.c, tab.a_lower, strict=True):
+                y = y0 + h * sum(float(a) * k for a, k in zip(row, ks, strict=True) if a != 0)
+                ks.append(terms.vf(t0 + float(c) * h, y, args))
+            # the last stage is at (t1, y1) (first same as last)
+            error = h * sum(float(b) * k for b, k in zip(tab.b_error, ks, strict=True) if b != 0)
+            return y, error, {"y0": y0, "y1": y}, ks[-1], diffrax.RESULTS.successful
+
+    assert UnrolledTsit5.tableau.fsal and UnrolledTsit5.tableau.ssal
+    return UnrolledTsit5()
 
 
 def padded_size(n: int) -> int:
@@ -51,11 +103,13 @@ def padded(values: np.ndarray, size: int | None = None) -> np.ndarray:
 
 @lru_cache(maxsize=16)
 def compiled(shape: Shape):
-    """``(run, draws)`` for programs of ``shape``, jitted (and kept on disk: :mod:`.stored`).
-    ``run(program, dts, count, y0, table, noise, coef, taus, lag_times) -> (states, explained,
-    ok)`` at every sample (``count``: how many of the padded samples are real; NaN after a
-    solver that stopped); ``draws`` the same
-    arguments with a row of ``noise``, ``coef`` and ``taus`` per draw, and a stride, -> the
+    """``(run, explain, draws)`` for programs of ``shape``, jitted (and kept on disk:
+    :mod:`.stored`). ``run(program, dts, count, y0, table, noise, coef, taus, lag_times) ->
+    (states, ok)`` at every sample (``count``: how many of the padded samples are real; NaN
+    after a solver that stopped); ``explain`` the same arguments and the states -> the explained
+    quantity they imply (a program of its own: a model whose explained side is an input never
+    pays for it); ``draws`` the arguments of ``run`` with a row of ``noise``, ``coef`` and
+    ``taus`` per draw, and a stride, -> the
     position (draws, samples) at every stride-th sample."""
     import diffrax
     import jax
@@ -63,16 +117,21 @@ def compiled(shape: Shape):
 
     prepare, rhs, explained = vector_field(shape)
     term = diffrax.ODETerm(rhs)
-    solver = diffrax.Tsit5()
+    solver, fixed = tsit5(), diffrax.Tsit5()  # the draws' steps, vectorised, cost arithmetic
 
     def run(program, dts, count, y0, table, noise, coef, taus, lag_times):
         args = (prepare(program, dts, count, coef, taus, lag_times), table, noise)
         end = (count - 1).astype(dts.dtype)
-        # each accepted step's state and slope (the slope for the Hermite interpolation below,
-        # evaluated in the loop for accepted steps only, not afterwards for every slot)
-        saved = diffrax.SaveAt(
-            t0=True, steps=True, fn=lambda s, y, a: jnp.concatenate([y, rhs(s, y, a)])
-        )
+
+        # each accepted step's state, slope and the position's second derivative (d/ds of
+        # v dt: the slope of v times dt) for the Hermite interpolation below, evaluated in the
+        # loop for accepted steps only, not afterwards for every slot
+        def saved_fn(s, y, a):
+            slope = rhs(s, y, a)
+            dt = a[0]["dts"][jnp.clip(jnp.floor(s).astype(jnp.int32), 0, count - 2)]
+            return jnp.concatenate([y, slope, slope[1:2] * dt])
+
+        saved = diffrax.SaveAt(t0=True, steps=True, fn=saved_fn)
         solution = diffrax.diffeqsolve(
             term, solver, 0.0, end, None, y0, args=args, saveat=saved,
             stepsize_controller=diffrax.PIDController(rtol=RTOL, atol=ATOL, dtmax=MAX_STEP),
@@ -81,21 +140,25 @@ def compiled(shape: Shape):
         )  # fmt: skip
         grid = jnp.minimum(jnp.arange(dts.shape[0]), count - 1).astype(dts.dtype)
         n = y0.shape[0]
-        ys = _hermite(solution.ts, solution.ys[:, :n], solution.ys[:, n:], grid)
-        ok = solution.result == diffrax.RESULTS.successful
-        force = jax.vmap(lambda s, y: explained(s, y, args))(grid, ys)
-        return ys, force, ok
+        ys = _hermite(solution.ts, solution.ys[:, :n], solution.ys[:, n : 2 * n], grid,
+                      solution.ys[:, 2 * n])  # fmt: skip
+        return ys, solution.result == diffrax.RESULTS.successful
+
+    def explain(program, dts, count, y0, table, noise, coef, taus, lag_times, ys):
+        args = (prepare(program, dts, count, coef, taus, lag_times), table, noise)
+        grid = jnp.minimum(jnp.arange(dts.shape[0]), count - 1).astype(dts.dtype)
+        return jax.vmap(lambda s, y: explained(s, y, args))(grid, ys)
 
     def one_draw(program, dts, count, y0, table, noise, coef, taus, lag_times, stride):
         args = (prepare(program, dts, count, coef, taus, lag_times), table, noise)
-        state = solver.init(term, 0.0, 1.0, y0, args)
+        state = fixed.init(term, 0.0, 1.0, y0, args)
         end = (count - 1).astype(dts.dtype)
 
         def step(k, carry):
             y, state, xs = carry
             s = (k * stride).astype(dts.dtype)
-            y, _, _, state, _ = solver.step(term, s, jnp.minimum(s + stride, end), y, args,
-                                            state, made_jump=False)  # fmt: skip
+            y, _, _, state, _ = fixed.step(term, s, jnp.minimum(s + stride, end), y, args,
+                                           state, made_jump=False)  # fmt: skip
             return y, state, xs.at[k + 1].set(y[0])
 
         xs = jnp.full(dts.shape[0], jnp.nan).at[0].set(y0[0])
@@ -103,20 +166,28 @@ def compiled(shape: Shape):
         return jax.lax.fori_loop(0, steps, step, (y0, state, xs))[2]
 
     draws = jax.vmap(one_draw, in_axes=(None, None, None, None, None, 0, 0, 0, None, None))
-    return stored(run, "run", shape), stored(draws, "draws", shape)
+    return (
+        stored(run, "run", shape),
+        stored(explain, "explain", shape),
+        stored(draws, "draws", shape),
+    )
 
 
-def _hermite(ts, ys, slopes, grid):
+def _hermite(ts, ys, slopes, grid, curvature):
     """The states at ``grid`` from the accepted steps' values and slopes: cubic Hermite between
-    steps (4th-order local error, as Tsit5's own dense output), one sorted search for every
-    sample (``SaveAt(ts=...)`` checks its times with a host callback, and evaluating diffrax's
-    dense output sample by sample costs more than the solve). Steps never taken are inf:
+    steps (4th-order local error, as Tsit5's own dense output), the position quintic with its
+    second derivative ``curvature`` too (6th-order; the velocity's would cost a vector field
+    evaluation per step). On the bench's SLS log the quintic took the miss of a tight solution
+    from 3.8e-6 to 7.7e-7 of the range. One binary search for every sample (``SaveAt(ts=...)``
+    checks its times with a host callback, and evaluating diffrax's dense output sample by
+    sample costs more than the solve; a search by sorting the steps and the samples together
+    took 16 ms of a 40 s log's 76 ms, the binary search 1 ms). Steps never taken are inf:
     samples past the last step are NaN."""
     import jax.numpy as jnp
 
     ts = jnp.where(jnp.isfinite(ts), ts, jnp.inf)
     slopes = jnp.nan_to_num(slopes)
-    k = jnp.clip(jnp.searchsorted(ts, grid, side="right", method="sort") - 1, 0,
+    k = jnp.clip(jnp.searchsorted(ts, grid, side="right", method="scan") - 1, 0,
                  ts.shape[0] - 2)  # fmt: skip
     t0, t1 = ts[k], ts[k + 1]
     h = t1 - t0
@@ -125,6 +196,15 @@ def _hermite(ts, ys, slopes, grid):
     y0, y1, m0, m1 = ys[k], ys[k + 1], slopes[k], slopes[k + 1]
     out = ((2 * w**3 - 3 * w**2 + 1) * y0 + (w**3 - 2 * w**2 + w) * h * m0
            + (-2 * w**3 + 3 * w**2) * y1 + (w**3 - w**2) * h * m1)  # fmt: skip
+    curvature = jnp.nan_to_num(curvature)
+    c0, c1, w, h = curvature[k], curvature[k + 1], w[:, 0], h[:, 0]
+    position = ((1 - 10 * w**3 + 15 * w**4 - 6 * w**5) * y0[:, 0]
+                + (w - 6 * w**3 + 8 * w**4 - 3 * w**5) * h * m0[:, 0]
+                + (w**2 - 3 * w**3 + 3 * w**4 - w**5) / 2 * h**2 * c0
+                + (w**3 - 2 * w**4 + w**5) / 2 * h**2 * c1
+                + (-4 * w**3 + 7 * w**4 - 3 * w**5) * h * m1[:, 0]
+                + (10 * w**3 - 15 * w**4 + 6 * w**5) * y1[:, 0])  # fmt: skip
+    out = out.at[:, 0].set(position)
     exact = (grid == t0)[:, None]  # a sample on a step (the last one, a one-step block)
     out = jnp.where(exact, y0, out)
     return jnp.where(jnp.isfinite(t1)[:, None] | exact, out, jnp.nan)
@@ -156,6 +236,7 @@ class Simulator:
     shape: Shape
     program: tuple[np.ndarray, ...] = field(repr=False)
     run: Callable[..., Any] = field(repr=False)
+    explain: Callable[..., Any] = field(repr=False)  # the explained quantity of ``run``'s states
     draws: Callable[..., Any] = field(repr=False)  # ``run`` over draws, at fixed steps
 
     @property
@@ -217,16 +298,15 @@ class Simulator:
         if disturbance is not None:
             noise[:n] = disturbance
         coef, taus, lag_times = self._padded(coefficients or self.coefficients())
-        with jax.enable_x64(True):
-            # numpy arguments straight to the jitted program: its own transfer is a fraction of
-            # ``jnp.asarray``'s dispatch per array (tens of µs each, 4,000 a demo)
-            ys, force, ok = self.run(self.program, dts, count, y0, values, noise, coef, taus,
-                                     lag_times)  # fmt: skip
-            ys, force = np.asarray(ys)[:n], np.asarray(force)[:n]
         output = any(k == "accel" for k, _, _ in self.equation.lhs)
-        return FreeTrajectory(
-            np.asarray(t), ys[:, 0], ys[:, 1], force if output else None, bool(ok)
-        )
+        with jax.enable_x64(True):
+            # numpy arguments straight to the jitted programs: their own transfer is a fraction
+            # of ``jnp.asarray``'s dispatch per array (tens of µs each, 4,000 a demo)
+            arrays = (self.program, dts, count, y0, values, noise, coef, taus, lag_times)
+            states, ok = self.run(*arrays)
+            force = np.asarray(self.explain(*arrays, states))[:n] if output else None
+            ys = np.asarray(states)[:n]
+        return FreeTrajectory(np.asarray(t), ys[:, 0], ys[:, 1], force, bool(ok))
 
     def positions(self, t, inputs, x0, v0, memory0, draws: list[Coefficients],
                   disturbances: np.ndarray, stride: int = 1,
