@@ -9,7 +9,8 @@ import numpy as np
 import pandas as pd
 
 
-def _figure(**kwargs):
+def new_figure(**kwargs):
+    """A matplotlib Figure drawn with Agg (for the report and the studies' figures)."""
     # matplotlib's object-oriented Figure renders with Agg without touching pyplot's global
     # backend, so library plotting never changes a user's notebook backend.
     from matplotlib.figure import Figure
@@ -79,7 +80,7 @@ def plot_model(
     t_axis, marks = _held_out_time(frame)
     stretch = _stretches(frame)
     keep = np.union1d(envelope(y), envelope(y_hat))
-    fig = _figure(figsize=(11, 6.5))
+    fig = new_figure(figsize=(11, 6.5))
     grid = fig.add_gridspec(2, 3)
     ax = fig.add_subplot(grid[0, :])
     ax.plot(t_axis[keep], y[keep], ".", ms=1.5, color="0.55", label=f"measured {label}")
@@ -122,7 +123,7 @@ def plot_model(
 
 def plot_scores(scores: pd.DataFrame, path: Path, unit: str = "N") -> None:
     """Held-out RMSE and NRMSE fit of every model, side by side."""
-    fig = _figure(figsize=(10, 0.32 * len(scores) + 1.3))
+    fig = new_figure(figsize=(10, 0.32 * len(scores) + 1.3))
     axes = fig.subplots(1, 2)
     names = scores["model"][::-1]
     axes[0].barh(names, scores["rmse (held-out)"][::-1], color="C0")

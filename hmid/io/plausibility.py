@@ -200,9 +200,9 @@ def _unit_hint(
 ) -> str:
     """``": is it in mm rather than m?"`` when another unit of the same kind puts ``span``
     (SI, read in ``unit``) inside ``bounds`` (and, with ``fill``, over a tenth of them)."""
-    from hmid.io.units import _parse
+    from hmid.io.units import parse_unit
 
-    parsed = _parse(unit)
+    parsed = parse_unit(unit)
     if parsed is None:
         return ""
     here = unit_factor(unit)

@@ -83,7 +83,7 @@ def unit_registry() -> pint.UnitRegistry:
     return pint.UnitRegistry()
 
 
-def _parse(unit: str) -> pint.Unit | None:
+def parse_unit(unit: str) -> pint.Unit | None:
     """The pint unit for ``unit``, or None if pint cannot read it."""
     if not isinstance(unit, str) or not unit.strip():
         return None
@@ -97,7 +97,7 @@ def _parse(unit: str) -> pint.Unit | None:
 
 def _reference(unit: str) -> pint.Unit:
     """The pint unit of one of hmid's own reference units (always readable)."""
-    parsed = _parse(unit)
+    parsed = parse_unit(unit)
     assert parsed is not None, unit
     return parsed
 
@@ -117,7 +117,7 @@ def si_unit(unit: str, channel: str) -> str:
     Raises :class:`UnitError` (message without a file prefix) if pint does not know ``unit`` or,
     for a canonical channel, if its dimension is not the channel's.
     """
-    parsed = _parse(unit)
+    parsed = parse_unit(unit)
     examples = EXAMPLES.get(channel, _OTHER_EXAMPLES)
     if parsed is None:
         raise UnitError(f"unknown unit {unit!r}; write a unit such as {examples}")
@@ -154,8 +154,8 @@ def to_si(
         place = f"channel {channel}" if column is None else f"column {column!r} (channel {channel})"
         raise UnitError(f"{source}: {place}: {err}") from None
     ureg = unit_registry()
-    quantity = ureg.Quantity(np.asarray(values, dtype="float64"), _parse(unit))
-    converted = quantity.to(_parse(target) if target != "1" else ureg.dimensionless)
+    quantity = ureg.Quantity(np.asarray(values, dtype="float64"), parse_unit(unit))
+    converted = quantity.to(parse_unit(target) if target != "1" else ureg.dimensionless)
     return np.asarray(converted.magnitude, dtype="float64"), target
 
 

@@ -303,13 +303,13 @@ def reproduce_ch6(params: AnkleParams | None = None) -> Ch6Result:
 def plot_ch6(result: Ch6Result, folder: str | Path) -> list[Path]:
     """The Ch. 6 figures as PNGs in ``folder``: full forces, stiffness per combination,
     sequential recruitment, travel by direction."""
-    from hmid.plots import _figure
+    from hmid.plots import new_figure
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
 
-    fig = _figure(figsize=(6.5, 3.5))
+    fig = new_figure(figsize=(6.5, 3.5))
     ax = fig.add_subplot()
     names = ["gastrocnemius", "soleus"]
     x = np.arange(len(names))
@@ -323,7 +323,7 @@ def plot_ch6(result: Ch6Result, folder: str | Path) -> list[Path]:
     ax.legend(fontsize=8)
     paths.append(_save(fig, folder / "ch6-full-force.png"))
 
-    fig = _figure(figsize=(7.5, 3.8))
+    fig = new_figure(figsize=(7.5, 3.8))
     ax = fig.add_subplot()
     table = result.stiffness.sort_values("stiffness")
     colors = ["tab:orange" if m == LOADS[0] else "tab:blue" for m in table.mass]
@@ -334,7 +334,7 @@ def plot_ch6(result: Ch6Result, folder: str | Path) -> list[Path]:
     ax.tick_params(axis="x", labelrotation=45, labelsize=8)
     paths.append(_save(fig, folder / "ch6-stiffness.png"))
 
-    fig = _figure(figsize=(6.5, 3.5))
+    fig = new_figure(figsize=(6.5, 3.5))
     ax = fig.add_subplot()
     trace = result.recruitment
     ax.plot(trace.t, trace.F[:, : trace.P.shape[1]].sum(axis=1))
@@ -344,7 +344,7 @@ def plot_ch6(result: Ch6Result, folder: str | Path) -> list[Path]:
     ax.set_title(f"Sequential recruitment, foot held: steps {steps} N (thesis ~40 N)")
     paths.append(_save(fig, folder / "ch6-recruitment.png"))
 
-    fig = _figure(figsize=(6.5, 3.5))
+    fig = new_figure(figsize=(6.5, 3.5))
     ax = fig.add_subplot()
     for direction, traj in result.travel.items():
         ax.plot(traj.t, np.degrees(traj.theta_pot),
