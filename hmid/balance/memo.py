@@ -90,6 +90,18 @@ class Memo:
         self.noted(found[1])
         return found[0]
 
+    def inherit(
+        self, owner: object, other: object, keys: Iterable[object], holds: Callable[[Any], bool]
+    ) -> None:
+        """Give the set ``other`` the values :meth:`derived` kept for ``owner`` under ``keys``
+        whose reads ``holds`` for it (``holds(deps)``): a set derived by new roles keeps its
+        segments and smoothers rather than finding them again."""
+        source = self._stores.get(id(owner), {})
+        for key in keys:
+            found = source.get(key)
+            if found is not None and holds(found[1]):
+                self.store(other).setdefault(key, found)
+
     @contextmanager
     def scoped(self, owner: object) -> Iterator[None]:
         """What is kept for ``owner`` inside the block is dropped after it (entries appended to

@@ -54,7 +54,8 @@ def _joined(parts: list[dict]) -> pd.DataFrame:
             np.repeat([logs.index(part["log"]) for part in parts], lengths).astype(np.int32),
             logs,
         ),
-        "segment": np.repeat(np.arange(len(parts), dtype=np.int32), lengths),
+        # the narrowest integer that numbers the pieces: a long log's column is a byte a row
+        "segment": np.repeat(np.arange(len(parts), dtype=np.min_scalar_type(-len(parts))), lengths),
     }
     for column in parts[0]:
         if column not in columns:

@@ -46,8 +46,14 @@ class FitData:
 
     @property
     def indices(self) -> np.ndarray:
-        """This role's row numbers, increasing (found once per signals and role)."""
-        return self.signals.derived(("indices", self.role), lambda: np.flatnonzero(self.rows))
+        """This role's row numbers, increasing (found once per signals and role; 32-bit where
+        they fit: a long log's training rows are held as long as their signals)."""
+
+        def found() -> np.ndarray:
+            rows = np.flatnonzero(self.rows)
+            return rows.astype(np.int32) if len(self.rows) <= np.iinfo(np.int32).max else rows
+
+        return self.signals.derived(("indices", self.role), found)
 
     @property
     def y(self) -> np.ndarray:

@@ -100,8 +100,10 @@ class PolynomialSpec(FamilySpec):
                 target_unit=units["target"],
             )
             y = data.y if data.slot_sign == 1 else data.slot_sign * data.y
-            model.fit(data.frame(variables, keys=False), y,
-                      monomials=smoothed_monomials(model.term_set, data))  # fmt: skip
+            # the variables too are read from the signals by blocks: a long log's training
+            # rows are not copied into a table beside them
+            model.fit(None, y, monomials=smoothed_monomials(model.term_set, data, linear=True))
+            del y
             table = model.coefficient_table()
             findings = declared_positive(f"poly:{variant}", table, self.positive, data.rig.position)
             fitted.append(
@@ -134,8 +136,8 @@ class FittedPolynomial(FittedModel):
     sign: int
 
     def predict(self, data: FitData) -> np.ndarray:
-        monomials = smoothed_monomials(self.model.term_set, data)
-        predicted = self.model.predict(data.frame(self.variables, keys=False), monomials=monomials)
+        monomials = smoothed_monomials(self.model.term_set, data, linear=True)
+        predicted = self.model.predict(None, monomials=monomials, n=len(data.indices))
         return predicted if self.sign == 1 else self.sign * predicted
 
     @property
@@ -155,12 +157,14 @@ class FittedPolynomial(FittedModel):
         return Structure.of(terms)
 
 
-def smoothed_monomials(terms, data: FitData) -> Mapping[str, np.ndarray]:
-    """Each term of degree two or more, on ``data``'s rows, as the balance evaluates it
-    (:class:`~hmid.balance.kinds.ChannelTerm`): a product of logged channels on the unsmoothed
-    signals and smoothed after, as the smoothed force that contains it. Computed when read, so
-    that a long log's design is the only copy of them."""
-    names = [t.name for t in terms if sum(power for _, power in t.powers) > 1]
+def smoothed_monomials(terms, data: FitData, linear: bool = False) -> Mapping[str, np.ndarray]:
+    """Each term of degree two or more (one or more: ``linear``), on ``data``'s rows, as the
+    balance evaluates it (:class:`~hmid.balance.kinds.ChannelTerm`): a product of logged
+    channels on the unsmoothed signals and smoothed after, as the smoothed force that contains
+    it (a single channel: its smoothed column). Computed when read, so that a long log's design
+    is the only copy of them."""
+    least = 1 if linear else 2
+    names = [t.name for t in terms if sum(power for _, power in t.powers) >= least]
     return _Monomials(names, data)
 
 

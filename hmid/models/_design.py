@@ -22,9 +22,11 @@ def row_design(
     X: Mapping[str, np.ndarray],
     scales: Mapping[str, float],
     given: Mapping[str, np.ndarray],
+    n: int | None = None,
 ) -> RowBlocks:
-    """The scaled design of ``terms`` on ``X``'s rows; ``given`` holds a term's column by name
-    and, through an optional ``block(name)``, a function of a slice of rows giving it there."""
+    """The scaled design of ``terms`` on ``X``'s rows (``n`` of them where ``X`` holds no
+    column); ``given`` holds a term's column by name and, through an optional
+    ``block(name)``, a function of a slice of rows giving it there."""
     block = getattr(given, "block", None)
     arrays = {v: np.asarray(X[v], dtype=float) for v in X}
     columns: list[Callable[[slice], np.ndarray]] = []
@@ -36,7 +38,8 @@ def row_design(
             columns.append((np.asarray(given[term.name], float) / factor).__getitem__)
         else:
             columns.append(partial(_evaluated, term, arrays, scales))
-    n = len(next(iter(X.values()))) if X else 0
+    if n is None:
+        n = len(next(iter(X.values()))) if X else 0
     return RowBlocks(n, columns)
 
 

@@ -112,7 +112,10 @@ def fit_statistics(y: np.ndarray, y_hat: np.ndarray, n_params: int) -> GoodnessO
     resid = y - np.asarray(y_hat, dtype="float64")
     n = y.size
     ssr = float(resid @ resid)
-    sst = float(np.sum((y - y.mean()) ** 2))
+    del resid  # a long log's rows: one temporary of y's length at a time, squared in place
+    deviation = y - y.mean()
+    sst = float(np.sum(np.square(deviation, out=deviation)))
+    del deviation
     r2 = 1.0 - ssr / sst if sst > 0 else float("nan")
     dof = n - n_params
     r2_adj = 1.0 - (1.0 - r2) * (n - 1) / dof if dof > 0 else float("nan")

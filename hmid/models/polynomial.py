@@ -53,14 +53,15 @@ import numpy as np
 import pandas as pd
 
 from hmid.balance.monomial import Monomial, variable_order
-from hmid.errors import ConfigError, SignalError
+from hmid.errors import ConfigError, SignalError, where
 from hmid.intervals import IntervalNote
 from hmid.models._design import row_design
-from hmid.models._lstsq import RowBlocks, tall_lstsq
+from hmid.models._lstsq import QR_BLOCK, RowBlocks, tall_lstsq
 from hmid.models.base import (
     Coefficient,
     FitStatistics,
     ForceModel,
+    check_target,
     fit_statistics,
     fit_table,
 )
@@ -174,26 +175,74 @@ class PolynomialModel(ForceModel):
             sorted({v for term in self._terms for v in term.variables}, key=variable_order)
         )
 
-    def fit(self, X: pd.DataFrame, y: np.ndarray, monomials=None) -> PolynomialModel:
+    def fit(self, X: pd.DataFrame | None, y: np.ndarray, monomials=None) -> PolynomialModel:
         """As :meth:`ForceModel.fit`; ``monomials`` optionally gives a term's column by its name
         (e.g. ``"x^3"``: the smoothed cube of the unsmoothed x, where ``X`` and ``y`` are
-        smoothed), used instead of the product of ``X``'s columns."""
+        smoothed), used instead of the product of ``X``'s columns.
+
+        ``X`` None: ``monomials`` gives every term with variables, and each variable, on any
+        block of rows (``monomials.block(name)(rows)``, ``rows`` a slice of ``len(y)`` rows):
+        a long log's variables are then read block by block, never copied whole."""
         self._monomials = monomials or {}  # a mapping; its columns may be computed on demand
         try:
+            if X is None:
+                source = f"{type(self).__name__}.fit"
+                self._fit(self._given_columns(len(y), source), check_target(y, len(y), source))
+                return self
             return super().fit(X, y)
         finally:
             del self._monomials  # an argument, not fitted state
 
-    def predict(self, X: pd.DataFrame, monomials=None) -> np.ndarray:
-        """As :meth:`ForceModel.predict`, with the ``monomials`` of :meth:`fit`."""
+    def predict(self, X: pd.DataFrame | None, monomials=None, n: int | None = None) -> np.ndarray:
+        """As :meth:`ForceModel.predict`, with the ``monomials`` of :meth:`fit`; ``X`` None: on
+        ``n`` rows, every term with variables from ``monomials`` (as in :meth:`fit`)."""
         self._monomials = monomials or {}  # a mapping; its columns may be computed on demand
         try:
+            if X is None:
+                self._check_fitted()
+                if n is None:
+                    raise SignalError(f"{type(self).__name__}.predict: without X, give n (rows)")
+                source = f"{type(self).__name__}.predict"
+                return self._predict(self._given_columns(n, source, scales=False))
             return super().predict(X)
         finally:
             del self._monomials
 
+    def _given_columns(self, n: int, source: str, scales: bool = True) -> _GivenColumns:
+        """The variables as :meth:`fit` reads them without ``X``: each checked finite (and its
+        scale found, for a fit) block by block."""
+        block = getattr(self._monomials, "block", None)
+        missing = [t.name for t in self._terms if t.powers and t.name not in self._monomials]
+        if block is None or missing:
+            raise SignalError(
+                f"{source}: without X, monomials must give every term with variables by blocks "
+                f"of rows (a block(name) method); missing: {missing or 'block'}"
+            )
+        found = {}
+        for variable in self.required_columns:
+            column, top = block(variable), 0.0
+            for lo in range(0, n, QR_BLOCK):
+                values = column(slice(lo, min(lo + QR_BLOCK, n)))
+                finite = np.isfinite(values)
+                if not finite.all():
+                    row = lo + int(np.argmin(finite))
+                    raise SignalError(
+                        f"{where(source, variable, row)}value {values[row - lo]} is not finite; "
+                        "drop or interpolate non-finite samples first"
+                    )
+                if scales:  # as _scale_of on the whole column: a maximum is exact by blocks
+                    top = max(top, float(np.max(np.abs(values))))
+            found[variable] = top if top > 0 else 1.0
+        return _GivenColumns(n, found)
+
+    def _scales(self, X: Mapping[str, np.ndarray]) -> dict[str, float]:
+        if isinstance(X, _GivenColumns):
+            return {v: scale if self.scale else 1.0 for v, scale in X.scales.items()}
+        return {v: _scale_of(X[v]) if self.scale else 1.0 for v in X}
+
     def _design(self, X: Mapping[str, np.ndarray], scales: Mapping[str, float]) -> RowBlocks:
-        return row_design(self._terms, X, scales, getattr(self, "_monomials", {}))
+        n = X.n if isinstance(X, _GivenColumns) else None
+        return row_design(self._terms, X, scales, getattr(self, "_monomials", {}), n)
 
     def _fit(self, X: Mapping[str, np.ndarray], y: np.ndarray) -> None:
         from statsmodels.stats.stattools import durbin_watson
@@ -203,7 +252,7 @@ class PolynomialModel(ForceModel):
             raise SignalError(
                 f"PolynomialModel.fit: {n} rows cannot fit {p} terms; pass more rows than terms"
             )
-        scales = {v: _scale_of(X[v]) if self.scale else 1.0 for v in X}
+        scales = self._scales(X)
         exog = self._design(X, scales)
         factor = np.array([term.scale_factor(scales) for term in self._terms])
         # least squares by blocks of rows: a long log's design is held once, not thrice
@@ -411,6 +460,15 @@ class PolynomialModel(ForceModel):
             f"{self.tau_int_:.3g} rows (the residual's own reads {self.raw_tau_int_:.3g}), "
             f"{per_term:.3g} effective rows per term, {status} that range"
         )
+
+
+class _GivenColumns(dict):
+    """No variable's column (they come from the monomials by blocks, :meth:`PolynomialModel.fit`
+    without ``X``): the row count ``n`` and each variable's scale (1 where it is all zero)."""
+
+    def __init__(self, n: int, scales: Mapping[str, float]) -> None:
+        super().__init__()
+        self.n, self.scales = n, dict(scales)
 
 
 def _scale_of(values: np.ndarray) -> float:

@@ -99,15 +99,18 @@ def diverged(model: Fitted, data: FitData) -> str | None:
         y = y[finite]
     del finite
     scale = float(np.sqrt(np.mean(np.square(y, out=y)))) if len(y) else 0.0
+    del y  # not held beside the predictions
     for role in ("train", "validation"):
         part = data.as_role(role)
         if not part.rows.any():
             continue
         prediction = model.predict(part)
-        used = prediction[np.isfinite(prediction)]
+        used = prediction[np.isfinite(prediction)]  # a copy: squared in place
         if role == "train" and len(used) < len(prediction):
             return f"its prediction is not finite on {len(prediction) - len(used)} training rows"
-        rms = float(np.sqrt(np.mean(used**2))) if len(used) else 0.0
+        del prediction
+        rms = float(np.sqrt(np.mean(np.square(used, out=used)))) if len(used) else 0.0
+        del used
         if scale > 0 and rms > DIVERGED * scale:
             where = "training" if role == "train" else "held-out"
             return (

@@ -452,13 +452,14 @@ def freerun_blocks(config: ExperimentConfig, split: Split, export: dict) -> Free
     training blocks their bands are calibrated on, as rows of their own with every model's
     memory states there: a long log's signals are let go before the free runs import JAX."""
     from hmid.portable import Model
-    from hmid.portable.freerun import blocks, held_rows, within_budget
+    from hmid.portable.freerun import block_spans, held_rows, within_budget
 
     signals = split.signals
-    spans, note = within_budget(blocks(signals), signals.dt)
-    training = blocks(signals, "train")  # the band's disturbance is calibrated there
+    # as ranges: of the blocks, held_rows takes the rows of those it keeps alone
+    kept, note = within_budget(block_spans(signals), signals.dt)
+    training = block_spans(signals, "train")  # the band's disturbance is calibrated there
     models = [Model(document) for document in export.values() if not isinstance(document, str)]
-    return FreeRunBlocks(held_rows(signals, spans, training, models), note)
+    return FreeRunBlocks(held_rows(signals, kept, training, models), note)
 
 
 def freerun(

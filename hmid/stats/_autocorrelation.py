@@ -118,10 +118,16 @@ def residual_correlation(
     # padded past the last lag, not to 2n: the circular correlation is the linear one up there
     size = fft.next_fast_len(n + lags, real=True)
     spectrum = fft.rfft(residual, size)
-    power = spectrum.real**2
-    power += spectrum.imag**2
-    del spectrum  # a long residual's transforms are the fit's largest arrays: one at a time
-    gamma = fft.irfft(power, size, overwrite_x=True)[: lags + 1] / n
+    # the power spectrum written over the spectrum, as a complex array with zero imaginary
+    # parts: irfft would copy a real one to complex (a long residual's transforms are the fit's
+    # largest arrays, so they are held one at a time)
+    power, imag = spectrum.real, spectrum.imag
+    np.square(power, out=power)
+    power += np.square(imag, out=imag)
+    imag[...] = 0.0
+    del power, imag
+    gamma = fft.irfft(spectrum, size, overwrite_x=True)[: lags + 1] / n
+    del spectrum
     if not gamma[0] > 0:  # an exact fit
         return gamma, 0, 1.0
     window, tau = sokal_window(gamma / gamma[0], c)

@@ -69,6 +69,20 @@ def test_a_derived_set_shares_its_memo_and_a_dropped_set_leaves_nothing_in_it():
     assert len(signals.memo) == stores - 1
 
 
+def test_a_set_with_new_roles_keeps_its_time_base_and_one_with_new_times_finds_it_again():
+    """A long log's segments and smoothers are found once (its median time step is a
+    difference of the whole time column): kept by a set that keeps t and the segments."""
+    signals = signals_with()
+    bounds = signals.bounds()
+    smoothers = signals.derived(("local smoothers",), lambda: [signals["t"][:3]])
+    kept = signals.with_roles(signals.train, ~signals.train)
+    assert kept.bounds() is bounds
+    assert kept.derived(("local smoothers",), lambda: pytest.fail("found again")) is smoothers
+    later = signals.with_columns(t=signals["t"] + 1.0)
+    assert later.derived(("local smoothers",), lambda: "again") == "again"
+    assert later.bounds() is bounds  # the segments' rows read the segments alone
+
+
 def test_a_pickled_set_starts_a_new_memo_and_a_memo_never_pickles():
     signals = signals_with()
     signals.derived(("kept",), lambda: 1)

@@ -438,6 +438,34 @@ def test_products_computed_by_row_blocks_give_the_fit_of_held_columns() -> None:
     np.testing.assert_allclose(by_rows.conf_int_, whole.conf_int_, rtol=1e-12)
 
 
+def test_a_fit_without_X_reads_its_variables_by_blocks_and_fits_to_the_bit() -> None:
+    """Every term with variables given by blocks of rows (what the family does on a long log's
+    signals): the same scales, coefficients, intervals and predictions as from a table."""
+    from hmid.errors import SignalError
+    from hmid.models._lstsq import QR_BLOCK
+
+    terms = variant_terms("cubic_xvP")
+    X, y = sample(terms, true_coefficients(terms), seed=7, n=QR_BLOCK + 999)
+    cols = {k: X[k].to_numpy() for k in X}
+    names = [t.name for t in terms if t.degree > 0]
+    products = _Products(cols, {name: None for name in names})
+    by_blocks = PolynomialModel("cubic_xvP").fit(None, y, monomials=products)
+    table = PolynomialModel("cubic_xvP").fit(X, y, monomials=_Products(cols, {
+        name: None for name in names if Monomial.parse(name).degree > 1}))  # fmt: skip
+    assert by_blocks.scales_ == table.scales_
+    np.testing.assert_array_equal(by_blocks.coef_, table.coef_)
+    np.testing.assert_array_equal(by_blocks.conf_int_, table.conf_int_)
+    np.testing.assert_array_equal(
+        by_blocks.predict(None, monomials=products, n=len(y)), table.predict(X, monomials=products)
+    )
+    cols["v"] = cols["v"].copy()
+    cols["v"][QR_BLOCK + 5] = np.nan
+    with pytest.raises(SignalError, match=f"column 'v' row {QR_BLOCK + 5}: value nan"):
+        PolynomialModel("cubic_xvP").fit(None, y, monomials=products)
+    with pytest.raises(SignalError, match=r"missing: \['x', 'P', 'x\^2'"):
+        PolynomialModel("cubic_xvP").fit(None, y, monomials=_Products(cols, {"v": None}))
+
+
 def test_a_long_fit_holds_the_columns_it_must_not_the_whole_design() -> None:
     import tracemalloc
 

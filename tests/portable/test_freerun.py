@@ -11,7 +11,7 @@ import pytest
 from hmid.balance import Signals
 from hmid.portable import Model
 from hmid.portable.file import FORMAT
-from hmid.portable.freerun import NotSimulable, blocks, simulate_signals
+from hmid.portable.freerun import NotSimulable, block_spans, blocks, simulate_signals
 
 
 def _model(terms, coefficients, *, explained="u", motion=None, channels=("x", "u")):
@@ -248,6 +248,13 @@ def test_the_free_runs_on_their_rows_alone_equal_those_on_the_whole_signals():
     options = {"draws": 5, "seed": 2}
     whole = simulate_signals(model, signals, spans, calibration=training, **options)
     held = held_rows(signals, spans, training, [model])
+    # the pipeline's spans are ranges (a long log's blocks are not held as row numbers)
+    ranges = held_rows(signals, block_spans(signals), block_spans(signals, "train"), [model])
+    assert [list(r) for r in block_spans(signals)] == [list(rows) for rows in spans]
+    for field in ("spans", "pieces"):
+        for one, other in zip(getattr(held, field), getattr(ranges, field), strict=True):
+            np.testing.assert_array_equal(one, other)
+    pd.testing.assert_frame_equal(held.signals.frame, ranges.signals.frame)
     assert len(held.signals) < len(signals) and held.memory["m"]
     alone = simulate_signals(model, held.signals, held.spans, held=held, **options)
     assert whole.calibration is not None and whole.runs[0].band is not None

@@ -15,6 +15,7 @@ from hmid.portable.freerun.equation import Equation, NotSimulable, equation
 from hmid.portable.freerun.integrator import FreeTrajectory, Simulator, simulator
 from hmid.portable.freerun.run import (
     FreeRunRows,
+    block_spans,
     blocks,
     calibration_pieces,
     chunks,
@@ -34,6 +35,7 @@ __all__ = [
     "FreeTrajectory",
     "NotSimulable",
     "Simulator",
+    "block_spans",
     "blocks",
     "calibrate",
     "calibration_pieces",

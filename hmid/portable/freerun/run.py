@@ -9,6 +9,7 @@ measured inputs alone.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
@@ -28,22 +29,40 @@ from hmid.portable.freerun.equation import NotSimulable
 from hmid.portable.freerun.integrator import Simulator, padded_size, simulator
 from hmid.portable.freerun.scores import FreeRun, score_block
 
+#: A block's rows: their numbers, or a range of them (:func:`block_spans`)
+Span = np.ndarray | range
+
 
 def blocks(signals, role: str = "validation") -> list[np.ndarray]:
     """Row spans to simulate: within each segment, from the first to the last row of ``role``,
     split where the role's rows stop for longer than a second (another block of the split)."""
+    return [np.arange(span.start, span.stop) for span in block_spans(signals, role)]
+
+
+def block_spans(signals, role: str = "validation") -> list[range]:
+    """:func:`blocks` as ranges: a long log's blocks are not held as row numbers (the training
+    blocks of 10 M rows would be ~60 MB of them, of which the band keeps a few)."""
     mask = signals.rows(role)
     t = signals["t"]
     out = []
-    for rows in signals.segments():
-        chosen = rows[mask[rows]]
+    for start, stop in signals.bounds():
+        chosen = start + np.flatnonzero(mask[start:stop])
         if len(chosen) < 10:
             continue
-        breaks = np.flatnonzero(np.diff(t[chosen]) > 1.0) + 1
-        for part in np.split(chosen, breaks):
-            if len(part) >= 10:
-                out.append(np.arange(part[0], part[-1] + 1))
+        edges = [0, *_breaks(t, chosen), len(chosen)]
+        out += [range(int(chosen[a]), int(chosen[b - 1]) + 1)
+                for a, b in itertools.pairwise(edges) if b - a >= 10]  # fmt: skip
     return out
+
+
+def _breaks(t: np.ndarray, chosen: np.ndarray, block: int = 1 << 20) -> list[int]:
+    """Where the rows ``chosen`` stop for longer than a second: the index of the row after each
+    pause (by blocks of rows: a long log's times there are not copied whole)."""
+    found: list[int] = []
+    for lo in range(0, len(chosen) - 1, block):
+        steps = np.diff(t[chosen[lo : lo + block + 1]])
+        found += (np.flatnonzero(steps > 1.0) + lo + 1).tolist()
+    return found
 
 
 #: Held-out time a model runs free for, at most (s): a free run costs in proportion to the time
@@ -51,7 +70,7 @@ def blocks(signals, role: str = "validation") -> list[np.ndarray]:
 FREE_RUN_BUDGET_S = 60.0
 
 
-def within_budget(spans: list[np.ndarray], dt: float) -> tuple[list[np.ndarray], str]:
+def within_budget(spans: list[Span], dt: float) -> tuple[list[Span], str]:
     """Every ``stride``-th span, the least stride whose spans last at most
     :data:`FREE_RUN_BUDGET_S` (evenly spread over the log: the same blocks every run), or the
     first span's first :data:`FREE_RUN_BUDGET_S` where no stride fits; and what was left out,
@@ -76,7 +95,7 @@ def _nth(n: int) -> str:
     return f"{n}{suffix}"
 
 
-def chunks(spans: list[np.ndarray], length: int) -> list[np.ndarray]:
+def chunks(spans: list[Span], length: int) -> list[Span]:
     """``spans`` cut into runs of ``length`` rows (the remainder a shorter run; at least ten
     rows each): the training blocks as long as the held-out ones, so that the band is
     calibrated on the horizon it is checked on (a free run's error grows with it)."""
@@ -183,7 +202,7 @@ def _stride(sim: Simulator, start: Start, draws: int, size: int | None) -> int:
     return 1
 
 
-def calibration_pieces(spans: list[np.ndarray], calibration) -> list[np.ndarray]:
+def calibration_pieces(spans: list[Span], calibration) -> list[Span]:
     """The training rows a band over ``spans`` is calibrated on: the ``calibration`` spans cut
     as long as the longest of ``spans`` and spread to at most :data:`CALIBRATION_SHARE` times
     their rows (none without spans or calibration)."""
@@ -211,8 +230,10 @@ class FreeRunRows:
 def held_rows(signals, spans, calibration=None, models=()) -> FreeRunRows:
     """The rows of ``signals`` that free runs over ``spans`` (with a band calibrated on the
     ``calibration`` spans) read, for each of ``models``: :func:`simulate_signals` gives the same
-    runs with ``rows=`` as with the whole signals."""
-    pieces = calibration_pieces(spans, calibration)
+    runs with ``rows=`` as with the whole signals. Spans are row numbers or ranges of them
+    (:func:`block_spans`: only the rows of those kept are made)."""
+    pieces = [_rows(rows) for rows in calibration_pieces(spans, calibration)]
+    spans = [_rows(rows) for rows in spans]
     parts = [*spans, *pieces]
     index = np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=int)
     frame = signals.frame.iloc[index].reset_index(drop=True)
@@ -223,7 +244,12 @@ def held_rows(signals, spans, calibration=None, models=()) -> FreeRunRows:
                        [np.searchsorted(index, rows) for rows in pieces], memory)  # fmt: skip
 
 
-def _spread(pieces: list[np.ndarray], samples: float) -> list[np.ndarray]:
+def _rows(span: Span) -> np.ndarray:
+    """A span's row numbers (a range of :func:`block_spans` made an array)."""
+    return np.arange(span.start, span.stop) if isinstance(span, range) else np.asarray(span)
+
+
+def _spread(pieces: list[Span], samples: float) -> list[Span]:
     """At most ``samples`` rows of ``pieces``, taken evenly across them (every k-th piece)."""
     total = sum(len(p) for p in pieces)
     if total <= samples:
