@@ -10,7 +10,7 @@ measured inputs alone.
 from __future__ import annotations
 
 import itertools
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -70,17 +70,17 @@ def _breaks(t: np.ndarray, chosen: np.ndarray, block: int = 1 << 20) -> list[int
 FREE_RUN_BUDGET_S = 60.0
 
 
-def within_budget(spans: list[Span], dt: float) -> tuple[list[Span], str]:
+def within_budget(spans: Sequence[Span], dt: float) -> tuple[list[Span], str]:
     """Every ``stride``-th span, the least stride whose spans last at most
     :data:`FREE_RUN_BUDGET_S` (evenly spread over the log: the same blocks every run), or the
     first span's first :data:`FREE_RUN_BUDGET_S` where no stride fits; and what was left out,
     in words ("" when every span is kept)."""
     total = sum(len(rows) for rows in spans) * dt
     if total <= FREE_RUN_BUDGET_S:
-        return spans, ""
+        return list(spans), ""
     budget = f"at most {FREE_RUN_BUDGET_S:g} s of held-out time per model; {total:.0f} s in all"
     for stride in range(2, len(spans) + 1):
-        kept = spans[::stride]
+        kept = list(spans[::stride])
         if sum(len(rows) for rows in kept) * dt <= FREE_RUN_BUDGET_S:
             return kept, (
                 f"free run on {len(kept)} of {len(spans)} held-out blocks (every "
@@ -126,7 +126,7 @@ def simulate_signals(
         return FreeRun(model.name, (), str(err))
     memory_rows = _memory_states(model, signals) if held is None else held.memory[model.name]
     band, sampled, scale, calibrated, stride = "", None, 1.0, None, 1
-    pieces: list[np.ndarray] = []
+    pieces: Sequence[Span] = []
     if draws and spans:
         sampled = coefficient_draws(model, sim, draws, seed)
         has = posterior_draws(model) is not None
