@@ -18,7 +18,9 @@ as :class:`~hmid.control.controllers.PID` runs it. Over a grid of kd, kp and ki 
 times the plant's sign), the triples whose loop's frequency response has the margins and whose
 closed loop's eigenvalues are inside the unit circle; of those the largest ki, then the largest
 kp; python-control (``control.margin``, ``control.feedback``) has the last word on the margins
-and poles. The PD's own gains stay as tuned: FF+PD is compared with PD alone at the same gains.
+and poles. The report gives the chosen loop's gain margin by its closed loop's eigenvalues
+(:func:`~hmid.control.tuning.loop_margins`, as the PD's) beside ``control.margin``'s. The PD's
+own gains stay as tuned: FF+PD is compared with PD alone at the same gains.
 
 **On/off valves** switch the effort on the pressure's error (:mod:`hmid.control.actuation`):
 a reversal waits for one valve to close and the other to open, so the loop sees a dead time of
@@ -39,6 +41,8 @@ from hmid.control.tuning import (
     Tuning,
     TuningError,
     _closed_matrix,
+    grid_margins,
+    loop_margins,
     pd_filter,
     resonance,
     sampled_response,
@@ -94,21 +98,6 @@ def pid_poles(plant: Any, kp: float, ki: float, kd: float, tf: float, dt: float)
     return np.linalg.eigvals(pid_matrix(A, B, C, kp, ki, kd, tf, dt))
 
 
-def grid_margins(L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(gain margin dB, phase margin deg) of each loop response along ``L``'s last axis (a
-    phase below -180 deg at a gain crossover counts as a negative margin)."""
-    re, im, mag = L.real, L.imag, np.abs(L)
-    cross = (np.sign(im[..., 1:]) != np.sign(im[..., :-1])) & (re[..., 1:] < 0)
-    peak = np.max(np.where(cross, mag[..., 1:], 0.0), axis=-1)
-    with np.errstate(divide="ignore"):
-        gm = np.where(peak > 0, -20 * np.log10(peak), np.inf)
-    unit = (mag[..., 1:] - 1) * (mag[..., :-1] - 1) <= 0
-    phase = 180 + np.angle(L[..., 1:], deg=True)
-    phase = np.where(phase > 180, phase - 360, phase)
-    pm = np.min(np.where(unit, phase, 180.0), axis=-1)
-    return gm, pm
-
-
 def tune_pid(
     plant: Any,
     dt: float,
@@ -138,8 +127,8 @@ def tune_pid(
         tuning = pid_report(plant, kp, ki, kd, tf, dt)
         if (
             tuning.stable
-            and tuning.gain_margin_db >= gain_margin_db - 1e-9
-            and tuning.phase_margin_deg >= phase_margin_deg - 1e-9
+            and tuning.control_gain_margin_db >= gain_margin_db - 1e-9
+            and tuning.control_phase_margin_deg >= phase_margin_deg - 1e-9
         ):
             return tuning
     raise TuningError(
@@ -149,7 +138,9 @@ def tune_pid(
 
 
 def pid_report(plant: Any, kp: float, ki: float, kd: float, tf: float, dt: float) -> Tuning:
-    """What python-control says of the loop with these gains."""
+    """What python-control says of the loop with these gains (``control.margin``, the rule's
+    margins, and its poles), and the loop's margins by :func:`~hmid.control.tuning.loop_margins`
+    (the gain margin by the closed loop's eigenvalues)."""
     import control
 
     # in state space: the integrator's pole at 1 beside the plant's slow ones makes the
@@ -158,8 +149,10 @@ def pid_report(plant: Any, kp: float, ki: float, kd: float, tf: float, dt: float
     loop = control.series(control.ss(pid_transfer(kp, ki, kd, tf, dt)), sampled)
     with warnings.catch_warnings():  # its note that it falls back to the frequency response
         warnings.simplefilter("ignore", UserWarning)
-        gm, pm, _, wc = control.margin(loop)
+        theirs, their_pm, _, _ = control.margin(loop)
     poles = np.asarray(control.feedback(loop, 1).poles())
-    gm_db = float(20 * np.log10(gm)) if np.isfinite(gm) and gm > 0 else float("inf")
-    crossover = float(wc / (2 * np.pi)) if np.isfinite(wc) else float("nan")
-    return Tuning(kp, kd, tf, dt, crossover, float(pm), gm_db, poles, *resonance(plant), ki=ki)
+    their_gm = float(20 * np.log10(theirs)) if np.isfinite(theirs) and theirs > 0 else np.inf
+    gm, pm, crossover = loop_margins(loop, dt)
+    return Tuning(kp, kd, tf, dt, crossover, pm, gm, poles, *resonance(plant), ki=ki,
+                  control_gain_margin_db=float(their_gm),
+                  control_phase_margin_deg=float(their_pm))  # fmt: skip

@@ -26,10 +26,10 @@ more than ``GAIN_MARGIN_COST`` dB of the PD's) or a stable closed loop (above it
 back in islands: on the Ch. 4 rig a 25 Hz observer has 13 dB and tracks the gait twice as badly).
 The loop is python-control's (``control.series``, ``control.feedback``, its frequency response);
 the gain margin is the closed loop's eigenvalues' (the smallest gain that moves a pole out of the
-unit circle), not ``control.margin``'s: a 1 %-damped resonance's peak is sharper than a frequency
-grid, and the observer's inverse nearly cancels the plant's poles, which costs a transfer
-function's polynomial roots their digits (the PD alone of the demo model's position on the
-Ch. 4 rig: ``control.margin`` 6.4 dB, the eigenvalues 5.7 dB). Besides the margins, the
+unit circle: :func:`~hmid.control.tuning.eigen_gain_margin_db`, the PD's rule's too), not
+``control.margin``'s: a 1 %-damped resonance's peak is sharper than a frequency grid, and the
+observer's inverse nearly cancels the plant's poles, which costs a transfer function's
+polynomial roots their digits. Besides the margins, the
 quantised sensor bounds it: G^-1 differentiates the reading n - 1 times, and Q's roll-off is
 what is left.
 
@@ -43,7 +43,6 @@ delayed`), as the PID is.
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
 from typing import Any
 
@@ -52,8 +51,15 @@ import jax.numpy as jnp
 import numpy as np
 
 from hmid.control.controllers import PD
-from hmid.control.integral import delayed, grid_margins
-from hmid.control.tuning import Tuning, TuningError, pd_transfer, resonance
+from hmid.control.integral import delayed
+from hmid.control.tuning import (
+    Tuning,
+    TuningError,
+    loop_margins,
+    pd_gain_margin_db,
+    pd_transfer,
+    resonance,
+)
 
 BANDWIDTH_GRID = np.geomspace(0.2, 100.0, 55)  # Hz
 #: dB of the PD's own gain margin the observer may cost where the PD has less than asked
@@ -131,56 +137,20 @@ def observer_transfer(obs: Observer, kp: float, kd: float, tf: float, dt: float)
                           control.feedback(one, H_u))  # fmt: skip
 
 
-def _gain_margin_db(A: np.ndarray, B: np.ndarray, C: np.ndarray) -> float:
-    """The sampled loop's gain margin (dB) from its closed loop's eigenvalues: the smallest
-    gain k > 1 up to 40 dB at which A - k B C has a pole on or outside the unit circle (a
-    quarter-dB grid, then bisection to 0.01 dB; inf if none)."""
-
-    def stable(k: float) -> bool:
-        return bool(np.max(np.abs(np.linalg.eigvals(A - k * B @ C))) < 1.0)
-
-    grid = np.geomspace(1.0, 100.0, 161)
-    for low, high in itertools.pairwise(grid):
-        if not stable(high):
-            while 20 * np.log10(high / low) > 0.01:
-                mid = np.sqrt(low * high)
-                low, high = (mid, high) if stable(mid) else (low, mid)
-            return float(20 * np.log10(high))
-    return float("inf")
-
-
 def observer_report(plant: Any, pd: Tuning, obs: Observer, dt: float) -> Tuning:
-    """What python-control says of the loop of the PD ``pd`` with the observer ``obs``."""
+    """The margins and poles of the loop of the PD ``pd`` with the observer ``obs``."""
     import control
 
     loop = control.series(observer_transfer(obs, pd.kp, pd.kd, pd.tf, dt),
                           control.c2d(control.ss(plant), dt, "zoh"))  # fmt: skip
-    A, B, C = (np.asarray(m) for m in (loop.A, loop.B, loop.C))
-    assert np.allclose(np.asarray(loop.D), 0.0), "the sampled plant is strictly proper"
     # the observer's inverse nearly cancels the plant's poles: a transfer function's polynomial
     # roots (control.margin's) lose those digits, and a frequency grid misses the 1 %-damped
-    # resonance's peak. The gain margin from the closed loop's eigenvalues, the phase margin
-    # from the loop's response on a dense grid (its crossover is far below the resonance),
-    # C (zI - A)^-1 B of python-control's state space at every point at once
-    hz = np.geomspace(1e-3, 0.5 / dt, 2000)
-    z = np.exp(2j * np.pi * hz * dt)
-    L = (C @ np.linalg.solve(z[:, None, None] * np.eye(len(A)) - A, B))[:, 0, 0]
-    pm = float(grid_margins(L)[1])
-    unit = np.flatnonzero((np.abs(L[1:]) - 1) * (np.abs(L[:-1]) - 1) <= 0)
-    crossover = float(hz[unit[-1] + 1]) if unit.size else float("nan")
+    # resonance's peak: the gain margin from the closed loop's eigenvalues, the phase margin
+    # from the loop's response on a dense grid (its crossover is far below the resonance)
+    gm, pm, crossover = loop_margins(loop, dt)
     poles = np.asarray(control.feedback(loop, 1).poles())
-    return Tuning(pd.kp, pd.kd, pd.tf, dt, crossover, pm, _gain_margin_db(A, B, C), poles,
-                  *resonance(plant), observer=obs)  # fmt: skip
-
-
-def pd_gain_margin_db(plant: Any, pd: Tuning, dt: float) -> float:
-    """The PD's own loop's gain margin by the closed loop's eigenvalues (what
-    :func:`_gain_margin_db` measures the observer's loop by)."""
-    import control
-
-    loop = control.series(control.ss(pd_transfer(pd.kp, pd.kd, pd.tf, dt)),
-                          control.c2d(control.ss(plant), dt, "zoh"))  # fmt: skip
-    return _gain_margin_db(*(np.asarray(m) for m in (loop.A, loop.B, loop.C)))
+    return Tuning(pd.kp, pd.kd, pd.tf, dt, crossover, pm, gm, poles, *resonance(plant),
+                  observer=obs)  # fmt: skip
 
 
 def tune_dob(
@@ -200,7 +170,7 @@ def tune_dob(
     at most ``GAIN_MARGIN_COST`` dB: a :class:`~hmid.control.tuning.Tuning` with its
     ``observer``; :class:`TuningError` if none on the grid does."""
     loop = delayed(plant, delay)
-    own = pd_gain_margin_db(loop, pd, dt)
+    own = pd_gain_margin_db(loop, pd.kp, pd.kd, pd.tf, dt)
     if own <= GAIN_MARGIN_COST:
         raise TuningError(f"the PD's own loop has {own:.1f} dB of gain margin here: no "
                           "disturbance observer keeps one")  # fmt: skip

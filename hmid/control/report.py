@@ -20,6 +20,8 @@ def _tuning_row(task: TaskResult, tn, controller: str, valves: str) -> dict:
             "kp (Pa/unit)": tn.kp, "ki (Pa/unit/s)": tn.ki, "kd (Pa s/unit)": tn.kd,
             "tf (s)": tn.tf, "crossover (Hz)": tn.crossover_hz,
             "gain margin (dB)": tn.gain_margin_db, "phase margin (deg)": tn.phase_margin_deg,
+            "control.margin gain margin (dB)": tn.control_gain_margin_db,
+            "control.margin phase margin (deg)": tn.control_phase_margin_deg,
             "slowest pole (s)": tn.slowest_pole_s, "stable": tn.stable}  # fmt: skip
 
 
@@ -231,13 +233,22 @@ def report(
                 "The rule (hmid/control/tuning.py): the stiffest PD whose sampled loop on the "
                 "model's linearisation (valve lag included, friction left out) is stable with at "
                 f"least {config.controller.gain_margin_db} dB gain and "
-                f"{config.controller.phase_margin_deg} deg phase margin; margins and poles by "
-                f"python-control. {_resonances(study)} FF+PID (hmid/control/integral.py), "
-                "where asked: the largest integral gain with the same margins (MIGO), per valve "
-                "kind, the on/off loop behind the valves' switching delay (opening + closing)."
-                + _observer_rule(study)
+                f"{config.controller.phase_margin_deg} deg phase margin, the gain margin by the "
+                "closed loop's eigenvalues (the smallest gain that moves a pole out of the unit "
+                "circle; python-control's control.margin, beside it, misses a lightly damped "
+                "resonance's peak and loses digits to polynomial roots), the phase margin on a "
+                f"dense frequency grid; poles by python-control. {_resonances(study)} FF+PID "
+                "(hmid/control/integral.py), where asked: the largest integral gain with the "
+                "same margins (MIGO, by control.margin), per valve kind, the on/off loop "
+                "behind the valves' switching delay (opening + closing)." + _observer_rule(study)
             ),
-            tables=(Table(frames["tuning"], "Gains and python-control's margins"),),
+            tables=(
+                Table(
+                    frames["tuning"],
+                    "Gains and margins (the closed loop's eigenvalues; "
+                    "python-control's control.margin beside them)",
+                ),
+            ),
         ),
         Section(
             "PD alone vs model-based feed-forward + PD (same gains)",

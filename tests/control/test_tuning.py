@@ -8,7 +8,13 @@ import pytest
 from _frictionless import linearised
 
 from hmid.control import feedforward, track, tune
-from hmid.control.tuning import closed_loop_poles, closed_poles, pd_transfer
+from hmid.control.tuning import (
+    closed_loop_poles,
+    closed_poles,
+    eigen_gain_margin_db,
+    pd_gain_margin_db,
+    pd_transfer,
+)
 
 DT = 1e-3
 T = np.arange(0, 2001) * DT
@@ -33,7 +39,34 @@ def test_the_loops_own_poles_are_python_controls(task):
     assert np.allclose(np.sort_complex(tuning.poles[np.abs(tuning.poles) > 1e-9]),
                        np.sort_complex(theirs), atol=1e-9)  # fmt: skip
     assert tuning.stable
-    assert tuning.gain_margin_db >= 5.0 and tuning.phase_margin_deg >= 40.0
+    assert tuning.gain_margin_db >= 6.0 and tuning.phase_margin_deg >= 45.0
+
+
+@pytest.mark.parametrize("task", ["position", "force"])
+def test_the_reported_gain_margin_is_the_closed_loops(task):
+    """The loop stays stable with its gains raised by up to the reported margin and no
+    further: the margin is the closed loop's eigenvalues', at least the 6 dB asked (a grid or
+    control.margin misses the 1 %-damped resonance's peak)."""
+    _, _, _, G = _linear(task)
+    tuning = tune(G, DT, tf=0.001)
+    assert tuning.gain_margin_db == pytest.approx(
+        pd_gain_margin_db(G, tuning.kp, tuning.kd, tuning.tf, DT)
+    )
+    assert 6.0 <= tuning.gain_margin_db < np.inf
+
+    def largest(k: float) -> float:  # the PD's own state matrix with its gains times k
+        return np.max(np.abs(closed_poles(G, k * tuning.kp, k * tuning.kd, tuning.tf, DT)))
+
+    edge = 10 ** (tuning.gain_margin_db / 20)
+    assert all(largest(k) < 1.0 for k in np.geomspace(1.0, edge / 10 ** (0.01 / 20), 200))
+    assert largest(edge * 10 ** (0.01 / 20)) >= 1.0
+
+
+def test_the_eigenvalue_gain_margin_of_a_known_loop():
+    # z x' = 0.5 x + u, y = 0.75 x: under gain k the pole 0.5 - 0.75 k leaves at k = 2 (z = -1)
+    A, B, C = np.array([[0.5]]), np.array([[1.0]]), np.array([[0.75]])
+    assert eigen_gain_margin_db(A, B, C) == pytest.approx(20 * np.log10(2.0), abs=0.01)
+    assert eigen_gain_margin_db(A, B, 0.01 * C) == np.inf  # stable beyond 40 dB
 
 
 def test_the_linearisation_is_the_rigs_resonance_behind_the_valve():
