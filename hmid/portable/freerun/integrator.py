@@ -332,8 +332,10 @@ class Simulator:
         w = (np.arange(n) - k * stride) / np.where(k * stride + stride <= n - 1, stride,
                                                   np.maximum(n - 1 - k * stride, 1))  # fmt: skip
         nxt = np.minimum(k + 1, xs.shape[1] - 1)
-        # a sample on a step is that step's position (the slot after the last step is NaN)
-        return np.where(w == 0, xs[:, k], xs[:, k] * (1 - w) + xs[:, nxt] * w)
+        # a sample on a step is that step's position (the slot after the last step is NaN); a
+        # diverged draw's inf times a weight of 0 is NaN, as a diverged sample is read anyway
+        with np.errstate(invalid="ignore"):
+            return np.where(w == 0, xs[:, k], xs[:, k] * (1 - w) + xs[:, nxt] * w)
 
 
 def simulator(model, v0: float | None = None) -> Simulator:
