@@ -279,7 +279,10 @@ class _Pool:
         :func:`quantile_band`, bit for bit, read from the two least and two greatest draws of
         each sample whose draws are all finite (all a band of 20 draws at 90 % needs: a pass
         over the draws rather than a sort of them)."""
-        runs = self.base + scale * self.d  # nominal + c + scale * d, as every band sums them
+        # nominal + c + scale * d, as every band sums them; a diverged draw's inf times a scale
+        # of 0 is NaN, which the band reads as not finite, as it reads the inf
+        with np.errstate(invalid="ignore", over="ignore"):
+            runs = self.base + scale * self.d
         n = len(runs)
         tail = (1 - level) / 2
         position = np.array([(n - 1) * tail, (n - 1) * (1 - tail)])
