@@ -472,9 +472,11 @@ def freerun(
 
     held = freerun_blocks.rows
     out: dict = {}
-    # in this process: models of one shape share one compiled program, and compiling it (seconds)
-    # costs more than running every model (tens of milliseconds each)
-    tasks = Tasks(workers=0)
+    # shared with the run's worker, idle by now (hmid.workers), each process taking the next
+    # model when it is free: the programs are read back from disk (:mod:`.freerun.stored`,
+    # JAX's compilation cache), so a process pays a few tenths of a second to load a shape's,
+    # less than a model's runs; a model runs the same program, to the same numbers, wherever
+    tasks = Tasks(ahead=1) if len(export) > 1 else Tasks(workers=0)
     for name, document in export.items():
         if isinstance(document, str):
             out[name] = FreeRun(name, (), document)

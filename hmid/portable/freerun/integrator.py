@@ -110,7 +110,25 @@ def compiled(shape: Shape):
     quantity they imply (a program of its own: a model whose explained side is an input never
     pays for it); ``draws`` the arguments of ``run`` with a row of ``noise``, ``coef`` and
     ``taus`` per draw, and a stride, -> the
-    position (draws, samples) at every stride-th sample."""
+    position (draws, samples) at every stride-th sample.
+
+    The functions are built (and diffrax imported) only when a program is traced: a process
+    that reads every program back from disk never imports diffrax (0.7 s of the demo's free-run
+    stage)."""
+    functions = lru_cache(maxsize=1)(lambda: _functions(shape))
+
+    def late(i: int, name: str) -> Callable[..., Any]:
+        def fn(*args):
+            return functions()[i](*args)
+
+        fn.__name__ = fn.__qualname__ = name  # the traced program's name, as before
+        return stored(fn, name, shape)
+
+    return late(0, "run"), late(1, "explain"), late(2, "draws")
+
+
+def _functions(shape: Shape):
+    """The pure functions behind :func:`compiled`'s programs, to trace."""
     import diffrax
     import jax
     import jax.numpy as jnp
@@ -166,11 +184,7 @@ def compiled(shape: Shape):
         return jax.lax.fori_loop(0, steps, step, (y0, state, xs))[2]
 
     draws = jax.vmap(one_draw, in_axes=(None, None, None, None, None, 0, 0, 0, None, None))
-    return (
-        stored(run, "run", shape),
-        stored(explain, "explain", shape),
-        stored(draws, "draws", shape),
-    )
+    return run, explain, draws
 
 
 def _hermite(ts, ys, slopes, grid, curvature):
