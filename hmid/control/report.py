@@ -227,29 +227,7 @@ def report(
     frames = tables(study)
     targets = metrics["targets"]
     sections = [
-        Section(
-            "PD tuning",
-            (
-                "The rule (hmid/control/tuning.py): the stiffest PD whose sampled loop on the "
-                "model's linearisation (valve lag included, friction left out) is stable with at "
-                f"least {config.controller.gain_margin_db} dB gain and "
-                f"{config.controller.phase_margin_deg} deg phase margin, the gain margin by the "
-                "closed loop's eigenvalues (the smallest gain that moves a pole out of the unit "
-                "circle; python-control's control.margin, beside it, misses a lightly damped "
-                "resonance's peak and loses digits to polynomial roots), the phase margin on a "
-                f"dense frequency grid; poles by python-control. {_resonances(study)} FF+PID "
-                "(hmid/control/integral.py), where asked: the largest integral gain with the "
-                "same margins (MIGO, by control.margin), per valve kind, the on/off loop "
-                "behind the valves' switching delay (opening + closing)." + _observer_rule(study)
-            ),
-            tables=(
-                Table(
-                    frames["tuning"],
-                    "Gains and margins (the closed loop's eigenvalues; "
-                    "python-control's control.margin beside them)",
-                ),
-            ),
-        ),
+        _tuning_section(study, config, frames["tuning"]),
         Section(
             "PD alone vs model-based feed-forward + PD (same gains)",
             (
@@ -288,6 +266,33 @@ def report(
         lead=_lead(study.model, targets),
         summary=(("model", study.model), ("valves", ", ".join(study.valves))),
         provenance=provenance,
+    )
+
+
+def _tuning_section(study: Study, config: ControlConfig, table) -> Section:
+    """The PD's tuning rule, the PID's and the observer's where asked, and the gains."""
+    return Section(
+        "PD tuning",
+        (
+            "The rule (hmid/control/tuning.py): the stiffest PD whose sampled loop on the "
+            "model's linearisation (valve lag included, friction left out) is stable with at "
+            f"least {config.controller.gain_margin_db} dB gain and "
+            f"{config.controller.phase_margin_deg} deg phase margin, the gain margin by the "
+            "closed loop's eigenvalues (the smallest gain that moves a pole out of the unit "
+            "circle; python-control's control.margin, beside it, misses a lightly damped "
+            "resonance's peak and loses digits to polynomial roots), the phase margin on a "
+            f"dense frequency grid; poles by python-control. {_resonances(study)} FF+PID "
+            "(hmid/control/integral.py), where asked: the largest integral gain with the "
+            "same margins (MIGO, by control.margin), per valve kind, the on/off loop "
+            "behind the valves' switching delay (opening + closing)." + _observer_rule(study)
+        ),
+        tables=(
+            Table(
+                table,
+                "Gains and margins (the closed loop's eigenvalues; "
+                "python-control's control.margin beside them)",
+            ),
+        ),
     )
 
 
