@@ -40,7 +40,8 @@ def _state_to_json(state) -> dict[str, Any]:
     }
 
 
-def _state_from_json(data: Mapping[str, Any]) -> tuple:
+def state_from_json(data: Mapping[str, Any]) -> tuple:
+    """numpy's MT19937 state back from the chain file's JSON (emcee resumes with it)."""
     keys = np.frombuffer(bytes.fromhex(data["keys"]), dtype="<u4").astype(np.uint32)
     return ("MT19937", keys, data["pos"], data["has_gauss"], data["cached_gaussian"])
 
@@ -55,7 +56,7 @@ def _chained(previous: str, chain: np.ndarray, logp: np.ndarray) -> str:
 _ORIGIN = "00" * 32  # the digest of no rows
 
 
-class _Store:
+class ChainStore:
     """The chain file: emcee's HDFBackend layout in ``mcmc``, hmid's metadata in ``hmid``."""
 
     def __init__(self, path: Path, meta: dict[str, Any], n_walkers: int, dim: int):

@@ -50,7 +50,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from hmid.errors import ConfigError
-from hmid.models.sls._chainfile import FIX, _state_from_json, _Store
+from hmid.models.sls._chainfile import FIX, ChainStore, state_from_json
 from hmid.models.sls._convergence import acceptance, converged, replay, tau_of
 from hmid.models.sls._errors import SamplerError, SamplingInterrupted
 from hmid.models.sls._logprob import LogProb
@@ -184,7 +184,7 @@ def run_sampler(
         "names": list(names),
         "fingerprint": fingerprint,
     }
-    store = None if backend_path is None else _Store(Path(backend_path), meta, n_walkers, dim)
+    store = None if backend_path is None else ChainStore(Path(backend_path), meta, n_walkers, dim)
     with contextlib.ExitStack() as stack:
         if store is not None:
             stack.enter_context(store.lock())
@@ -267,7 +267,7 @@ def _resumed(backend, target, checkpoint, cfg, store) -> _Walk:
     backend.iteration = replayed.n
     if replayed.reason is None:  # sampling goes on: emcee's counts go on from the file's
         backend.accepted = np.asarray(checkpoint["accepted"], dtype=float)
-    random_state = _state_from_json(checkpoint["random_state"])
+    random_state = state_from_json(checkpoint["random_state"])
     target.n_nan = checkpoint["n_nan"]
     state = emcee.State(backend.chain[-1], log_prob=backend.log_prob[-1], random_state=random_state)
     return _Walk(backend, state, backend.iteration, replayed.history, replayed.tau,
