@@ -189,9 +189,10 @@ class AnkleRig:
         return effort, traj.P[:, mask].mean(axis=1), valves[:, mask] if self.on_off else None
 
     # --- the model's side ----------------------------------------------------------------
-    def _balance(self, laws: FibreLaws, ref: Reference) -> tuple[np.ndarray, list]:
-        """The torque the engaged fibres must give along ``ref`` and their summed
-        polynomial in P (coefficient arrays), the rest of the balance known."""
+    def _balance(self, laws: FibreLaws, ref: Reference) -> tuple[np.ndarray, list, list]:
+        """The torque the engaged fibres must give along ``ref``, and per engaged fibre its
+        moment arm and its tension's polynomial in P (coefficient arrays), the rest of the
+        balance known."""
         p = self.params
         x, r = kinematics(p, ref.y)
         v = -r * ref.dy[:, None]
@@ -204,19 +205,28 @@ class AnkleRig:
         need = (p.foot_inertia * ref.ddy + p.damping * ref.dy + p.coulomb * np.tanh(ref.dy / V0)
                 - passive - weight)  # fmt: skip
         engaged = [i for i, e in enumerate(self.engaged) if e]
-        order = max(len(polys[i]) for i in engaged)
-        coefs = [sum(r[:, i] * polys[i][k] for i in engaged if k < len(polys[i]))
-                 for k in range(order)]  # fmt: skip
-        return need, coefs
+        return need, [r[:, i] for i in engaged], [polys[i] for i in engaged]
 
     def demand(self, law: FibreLaws, ref: Reference) -> np.ndarray:
-        """The pressure in the engaged fibres that moves the foot along ``ref`` (rad)."""
-        need, coefs = self._balance(law, ref)
-        P = (need - coefs[0]) / coefs[1]
-        for _ in range(20 if len(coefs) > 2 else 0):  # Newton on a polynomial in P
-            value = sum(c * P**k for k, c in enumerate(coefs)) - need
-            deriv = sum(k * c * P ** (k - 1) for k, c in enumerate(coefs) if k)
-            P = P - value / np.where(deriv == 0, 1.0, deriv)
+        """The pressure in the engaged fibres that moves the foot along ``ref`` (rad).
+
+        A fibre pulls, never pushes (the rig's tension is max(0, ...)): where the one pressure
+        leaves an engaged fibre's tension negative by its law (fibres unlike each other, e.g.
+        each its own build's model: one pressure cannot keep them all taut), the balance is
+        solved again without it. Dropping a slack fibre moves the pressure the way that keeps
+        it slack (every engaged fibre relaxes with P), so the taut set only shrinks: at most one
+        pass per fibre. With one model per type every fibre of a type is alike and taut along
+        the task's references: the first solution stands."""
+        need, arms, polys = self._balance(law, ref)
+        taut = np.ones((len(arms), len(need)), dtype=bool)
+        P = _solve(need, arms, polys, taut)
+        for _ in arms:
+            tension = np.array([sum(c * P**k for k, c in enumerate(poly)) for poly in polys])
+            slack = taut & (tension < 0)
+            if not slack.any():
+                break
+            taut &= ~slack
+            P = np.where(taut.any(axis=0), _solve(need, arms, polys, taut), P)
         return P
 
     def feedforward(self, law: FibreLaws, ref: Reference, valve_tau: float) -> np.ndarray:
@@ -247,6 +257,22 @@ class AnkleRig:
     def proportional(self, valve: ProportionalValve) -> AnkleRig:
         return replace(self, params=self.params.model_copy(update={"valve": valve}),
                        realisation=Proportional(highest=self.params.supply))  # fmt: skip
+
+
+def _solve(need: np.ndarray, arms: list, polys: list, taut: np.ndarray) -> np.ndarray:
+    """P where the ``taut`` fibres' torque sum(r_i T_i(P)) meets ``need`` (per sample): exact
+    for a balance affine in P, Newton on a polynomial."""
+    order = max(len(poly) for poly in polys)
+    coefs = [sum(np.where(on, r * poly[k], 0.0) if not on.all() else r * poly[k]
+                 for r, poly, on in zip(arms, polys, taut, strict=True) if k < len(poly))
+             for k in range(order)]  # fmt: skip
+    with np.errstate(divide="ignore", invalid="ignore"):  # no taut fibre: the caller keeps P
+        P = (need - coefs[0]) / coefs[1]
+    for _ in range(20 if len(coefs) > 2 else 0):  # Newton on a polynomial in P
+        value = sum(c * P**k for k, c in enumerate(coefs)) - need
+        deriv = sum(k * c * P ** (k - 1) for k, c in enumerate(coefs) if k)
+        P = P - value / np.where(deriv == 0, 1.0, deriv)
+    return P
 
 
 def linearise(plant: AnkleRig, laws: FibreLaws, theta0: float, P0: float, valve_tau: float):

@@ -170,6 +170,9 @@ class ControlConfig(_Strict):
     rig: RigParams = RigParams()
     rate: Positive = 1000.0
     duration: Annotated[float, Field(gt=0, le=600)] = 4.0
+    # s of the reference's start held, the controller engaged, before the scored trajectory
+    # (a pre-roll: hmid.control.references); the same for every controller, valve and plant
+    hold: Annotated[float, Field(ge=0, le=60)] = 0.0
     step_at: Annotated[float, Field(ge=0)] = 1.0
     transition: Positive = 0.25
     frequency: Positive = 1.0

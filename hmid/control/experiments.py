@@ -110,7 +110,14 @@ def track(
     seed: int = 0,
 ) -> Tracking:
     """Run ``plant`` under ``controller`` with the feed-forward ``ff`` along ``ref`` (sampled
-    at the plant's rate; command k acts from ref.t[k] to ref.t[k + 1])."""
+    at the plant's rate; command k acts from ref.t[k] to ref.t[k + 1]).
+
+    Where ``ref`` starts with a hold (:class:`~hmid.control.references.Reference`), the loop
+    runs through it, its states starting at zero at the hold's start (the rig at rest at the
+    model's hold pressure: the effort that pressure plus the PD's answer to the first error,
+    no derivative kick) and carried into the trajectory unreset: nothing switches at the hold's
+    end, so the transfer is bumpless. The run returned, and scored, is what follows the hold,
+    its time from the hold's end."""
     n = len(ref.t) - 1
     noise = plant.noise * np.random.default_rng(seed).standard_normal(n)
     references = {"r": ref.y[:-1], "ff": ff.commands, "noise": noise}
@@ -119,8 +126,11 @@ def track(
         initial_inputs=plant.inputs(n, ff.start), initial_outputs=plant.outputs(ff.start),
         substeps=plant.substeps,
     )  # fmt: skip
-    output = getattr(traj, plant.tracked)
     effort, pressure, valve = plant.commanded(traj, commands, ff)
-    metrics = tracking_score(ref, traj.t, output, plant.resolution, valve)
-    return Tracking(controller, ref, traj.t, output, ff.demand[1:], effort, pressure, valve,
-                    metrics)  # fmt: skip
+    k = round(ref.hold * plant.rate)  # sample k on: after the hold's last command
+    scored = ref.scored()
+    t, output = traj.t[: len(traj.t) - k], getattr(traj, plant.tracked)[k:]  # the rig's clock
+    valve = None if valve is None else valve[k:]
+    metrics = tracking_score(scored, t, output, plant.resolution, valve)
+    return Tracking(controller, scored, t, output, ff.demand[1 + k :], effort[k:],
+                    pressure[k:], valve, metrics)  # fmt: skip

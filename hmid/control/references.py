@@ -7,6 +7,14 @@ minimum-jerk transition (quintic, zero velocity and acceleration at both ends) o
 a smooth periodic shape of four harmonics with a slow stance and a fast push-off, scaled to
 [low, high]: what an ankle's muscle sees when walking, in the tracked quantity's own units (so
 an ankle rig reuses it in radians).
+
+A reference may start with a **hold** (a pre-roll): the start's value held for ``hold`` seconds
+before the trajectory, the controller engaged, as a real experiment holds its initial set-point
+(thesis Ch. 6: "each test starts in full plantarflexion") before it starts. The rig starts at
+rest at the pressure the model says holds the start; a plant unlike the model (a fibre off its
+type's model by the build's scatter) rests elsewhere, and the hold is where the loop pulls it to
+the start. Only what follows the hold is scored (:meth:`Reference.scored`): a controller is
+judged on tracking, not on where an unknown plant happened to rest before it was switched on.
 """
 
 from __future__ import annotations
@@ -37,6 +45,18 @@ class Reference:
     ddy: np.ndarray
     settle_from: float = float("nan")
     size: float = float("nan")
+    hold: float = 0.0  # s of the start held before the trajectory (not scored)
+
+    def scored(self) -> Reference:
+        """The reference after its hold, its time from the hold's end (itself without one);
+        on a uniform grid the clock's first instants, so a held run's time axis is exactly a
+        run's without a hold."""
+        if self.hold == 0:
+            return self
+        keep = self.t >= self.hold - 1e-9
+        t = self.t[: np.count_nonzero(keep)] - self.t[0]
+        return Reference(self.kind, t, self.y[keep], self.dy[keep], self.ddy[keep],
+                         self.settle_from - self.hold, self.size)  # fmt: skip
 
 
 def _quintic(s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -57,20 +77,24 @@ def reference(
     step_at: float = 1.0,
     transition: float = 0.25,
     frequency: float = 1.0,
+    hold: float = 0.0,
 ) -> Reference:
     """The reference ``kind`` between ``low`` and ``high`` at the times ``t`` (s): a step up
     (low to high at ``step_at``), down (high to low), a sine or the gait-like cycle at
     ``frequency`` (Hz), each starting at rest where it starts (a sine and a cycle fade in over
-    their first period, so the demanded motion starts from rest)."""
-    t = np.asarray(t, dtype=float)
+    their first period, so the demanded motion starts from rest), after ``hold`` s of its start
+    held (the module's docstring; ``step_at`` counts from the hold's end)."""
+    clock = np.asarray(t, dtype=float)
+    t = np.maximum(clock - hold, 0.0)  # the trajectory's own time: 0 through the hold
     if kind in ("step_up", "step_down"):
         y0, y1 = (low, high) if kind == "step_up" else (high, low)
         s, ds, dds = _quintic((t - step_at) / transition)
         inside = (t > step_at) & (t < step_at + transition)
         span = y1 - y0
-        return Reference(kind, t, y0 + span * s, np.where(inside, span * ds / transition, 0.0),
+        return Reference(kind, clock, y0 + span * s,
+                         np.where(inside, span * ds / transition, 0.0),
                          np.where(inside, span * dds / transition**2, 0.0),
-                         step_at + transition, abs(span))  # fmt: skip
+                         hold + step_at + transition, abs(span), hold)  # fmt: skip
     w = 2 * np.pi * frequency
     if kind == "sine":
         shape, dshape, ddshape = -np.cos(w * t), w * np.sin(w * t), w**2 * np.cos(w * t)
@@ -86,7 +110,7 @@ def reference(
     dg = denv * (shape - start) + env * dshape
     ddg = ddenv * (shape - start) + 2 * denv * dshape + env * ddshape
     mid, half = (low + high) / 2, (high - low) / 2  # the shapes span [-1, 1] from -1
-    return Reference(kind, t, mid + half * g, half * dg, half * ddg)
+    return Reference(kind, clock, mid + half * g, half * dg, half * ddg, hold=hold)
 
 
 def _gait(w: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -204,6 +204,17 @@ def _directions(study: Study) -> str:
     )
 
 
+def _scored(config: ControlConfig) -> str:
+    """What a run scores, where the config holds the start first (nothing otherwise)."""
+    if config.hold == 0:
+        return ""
+    return (
+        f"Every run first holds the reference's start for {config.hold:g} s, the loop engaged "
+        "(a pre-roll, the same for every controller, valve and plant); the RMSE is of the "
+        f"{config.duration:g} s that follow. "
+    )
+
+
 def _figure_dir(run_dir: Path) -> Path:
     (run_dir / "figures").mkdir(parents=True, exist_ok=True)
     return run_dir / "figures"
@@ -232,7 +243,7 @@ def report(
             "PD alone vs model-based feed-forward + PD (same gains)",
             (
                 "RMSE of the logged output against the reference; reduction = 1 - FF+PD / PD "
-                f"(target >= 50 %). {_resolutions(study)}{_directions(study)}"
+                f"(target >= 50 %). {_scored(config)}{_resolutions(study)}{_directions(study)}"
             ),
             tables=(
                 Table(frames["targets"], "Tracking RMSE per task"),

@@ -82,11 +82,14 @@ def plants(config: ControlConfig) -> dict[str, MuscleRig]:
 
 
 def references(config: ControlConfig, low: float, high: float) -> dict[str, Reference]:
-    """Every configured reference between ``low`` and ``high`` (the tracked output's unit)."""
-    t = np.arange(0, round(config.duration * config.rate) + 1) / config.rate
+    """Every configured reference between ``low`` and ``high`` (the tracked output's unit),
+    after the config's hold (a whole number of samples)."""
+    held = round(config.hold * config.rate)
+    t = np.arange(0, held + round(config.duration * config.rate) + 1) / config.rate
     return {
         kind: reference(kind, t, low, high, step_at=config.step_at,
-                        transition=config.transition, frequency=config.frequency)
+                        transition=config.transition, frequency=config.frequency,
+                        hold=held / config.rate)
         for kind in config.references
     }  # fmt: skip
 
