@@ -138,12 +138,13 @@ def _functions(shape: Shape):
     solver, fixed = tsit5(), diffrax.Tsit5()  # the draws' steps, vectorised, cost arithmetic
 
     def run(program, dts, count, y0, table, noise, coef, taus, lag_times):
-        args = (prepare(program, dts, count, coef, taus, lag_times), table, noise)
+        args = (prepare(program, dts, count, table, coef, taus, lag_times), table, noise)
         end = (count - 1).astype(dts.dtype)
 
         # each accepted step's state, slope and the position's second derivative (d/ds of
         # v dt: the slope of v times dt) for the Hermite interpolation below, evaluated in the
-        # loop for accepted steps only, not afterwards for every slot
+        # loop: two kernels of a step's 36; afterwards for every slot, ~15 % slower; carried by
+        # the solver's dense info, no faster (benchmarks/README.md, 2026-11-27 19:30)
         def saved_fn(s, y, a):
             slope = rhs(s, y, a)
             dt = a[0]["dts"][jnp.clip(jnp.floor(s).astype(jnp.int32), 0, count - 2)]
@@ -163,12 +164,12 @@ def _functions(shape: Shape):
         return ys, solution.result == diffrax.RESULTS.successful
 
     def explain(program, dts, count, y0, table, noise, coef, taus, lag_times, ys):
-        args = (prepare(program, dts, count, coef, taus, lag_times), table, noise)
+        args = (prepare(program, dts, count, table, coef, taus, lag_times), table, noise)
         grid = jnp.minimum(jnp.arange(dts.shape[0]), count - 1).astype(dts.dtype)
         return jax.vmap(lambda s, y: explained(s, y, args))(grid, ys)
 
     def one_draw(program, dts, count, y0, table, noise, coef, taus, lag_times, stride):
-        args = (prepare(program, dts, count, coef, taus, lag_times), table, noise)
+        args = (prepare(program, dts, count, table, coef, taus, lag_times), table, noise)
         state = fixed.init(term, 0.0, 1.0, y0, args)
         end = (count - 1).astype(dts.dtype)
 
