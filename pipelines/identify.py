@@ -1,5 +1,6 @@
-"""Identification study: load -> denoise -> friction -> signals -> split -> fit -> compare -> loop,
-then tables, figures, metrics and the report in a new run folder."""
+"""Identification study: load -> denoise -> friction -> signals -> split -> fit -> export ->
+compare -> loop (the exported models' free runs beside the last two, in the run's worker), then
+tables, figures, metrics and the report in a new run folder."""
 
 from __future__ import annotations
 
