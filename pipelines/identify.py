@@ -1,5 +1,6 @@
-"""Identification study: load -> denoise -> friction -> signals -> split -> fit -> compare -> loop,
-then tables, figures, metrics and the report in a new run folder."""
+"""Identification study: load -> denoise -> friction -> signals -> split -> fit -> export ->
+compare -> loop (the exported models' free runs beside the last two, in the run's worker), then
+tables, figures, metrics and the report in a new run folder."""
 
 from __future__ import annotations
 
@@ -48,6 +49,13 @@ STAGES = (
         ("split", "friction"),
         lambda c: {"models": [m.model_dump(mode="json") for m in c.models], "seed": c.seed},
     ),
+    Stage("export", s.export, ("split", "fit", "friction"), _section("denoise", "fit")),
+    Stage("rows", s.rows, ("split",), store=False),
+    Stage("freerun_blocks", s.freerun_blocks, ("split", "export"), store=False),
+    # the free runs go on in the worker while the run compares the models and runs the loop;
+    # with no worker they run once the loop is done (the signals are let go before they import
+    # JAX)
+    Stage("freerun", s.freerun, ("freerun_blocks", "fit", "export"), started=True),
     Stage("compare", s.compare, ("split", "fit")),
     Stage(
         "loop",
@@ -55,11 +63,6 @@ STAGES = (
         ("split", "fit", "friction"),
         lambda c: {"loop": c.loop.model_dump(mode="json") if c.loop else None},
     ),
-    Stage("export", s.export, ("split", "fit", "friction"), _section("denoise", "fit")),
-    Stage("rows", s.rows, ("split",), store=False),
-    # the free runs' rows alone: the signals are let go before the free runs import JAX
-    Stage("freerun_blocks", s.freerun_blocks, ("split", "export"), store=False),
-    Stage("freerun", s.freerun, ("freerun_blocks", "fit", "export")),
 )
 
 

@@ -20,6 +20,7 @@ import json
 import time
 import warnings
 from collections.abc import Callable, Collection, Mapping, Sequence
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from functools import cache
 from importlib import metadata
@@ -41,6 +42,11 @@ class Stage:
 
     ``store=False`` for stages whose artifact is the data itself (loaded, smoothed, split): they
     are cheap to redo and a cache of them would copy every log several times over.
+
+    ``started=True`` for a stage whose work goes on beside the stages after it (handed to a
+    worker, :mod:`hmid.workers`): ``fn`` then returns a callable that gives the artifact, and
+    the runner calls it when a later stage reads the artifact, or once the last stage is done.
+    Its time is what the run spent in the two calls (the worker's is not the run's to wait for).
     """
 
     name: str
@@ -48,6 +54,7 @@ class Stage:
     inputs: tuple[str, ...] = ()
     depends: Callable[[Any], Any] = lambda config: None
     store: bool = True
+    started: bool = False
 
 
 @cache
@@ -77,6 +84,18 @@ class StageRecord:
     key: str
     cached: bool | None  # None: a stage that is never stored (the data stages)
     wall_s: float
+
+
+@dataclass
+class _Started:
+    """A stage begun whose artifact is still to come (``Stage.started``)."""
+
+    stage: Stage
+    finish: Callable[[], Any]
+    key: str
+    path: Path | None  # its cache entry (None: not stored)
+    lock: ExitStack  # the entry's lock, held until the artifact is written
+    seconds: float  # the run's time in the stage so far
 
 
 @dataclass
@@ -120,39 +139,81 @@ class Runner:
         for i, stage in enumerate(stages):
             for name in stage.inputs:
                 last_read[name] = i
-        for i, stage in enumerate(stages):
-            missing = [name for name in stage.inputs if name not in artifacts]
-            if missing:
-                raise ValueError(f"stage {stage.name!r} needs {missing}, not produced before it")
-            if stage.name in before:
-                before[stage.name]()
-            if progress is not None:
-                progress.started(stage.name)
-            key = self._key(stage, config, [self.records[n].key for n in stage.inputs])
-            path = self.cache_dir / f"{stage.name}-{key[:20]}.pkl"
-            start = time.perf_counter()
-            if not stage.store:
-                found = None
-                artifacts[stage.name] = self._compute(stage, config, artifacts)
-            else:
-                self.cache_dir.mkdir(parents=True, exist_ok=True)
-                with _locked(path, f"stage {stage.name!r}"):
-                    found = None if self.force else self._read(stage, path)
-                    if found is not None:
-                        artifacts[stage.name] = found[0]
-                    else:
-                        artifacts[stage.name] = self._compute(stage, config, artifacts)
-                        # labelled with its stage: an entry copied over another's is caught
-                        write_entry(path, (stage.name, artifacts[stage.name]))
-            cached = (found is not None) if stage.store else None
-            record = StageRecord(key, cached, time.perf_counter() - start)
-            self.records[stage.name] = record
-            if progress is not None:
-                progress.done(stage.name, record.wall_s, cached)
-            if keep is not None:
-                for name in [n for n in artifacts if n not in keep and last_read[n] <= i]:
-                    del artifacts[name]
+        started: dict[str, _Started] = {}
+        try:
+            for i, stage in enumerate(stages):
+                for name in [n for n in stage.inputs if n in started]:
+                    artifacts[name] = self._finish(started.pop(name), progress)
+                missing = [name for name in stage.inputs if name not in artifacts]
+                if missing:
+                    raise ValueError(
+                        f"stage {stage.name!r} needs {missing}, not produced before it"
+                    )
+                if stage.name in before:
+                    before[stage.name]()
+                begun = self._stage(stage, config, artifacts, progress)
+                if begun is not None:
+                    started[stage.name] = begun
+                if keep is not None:
+                    for name in [n for n in artifacts if n not in keep and last_read[n] <= i]:
+                        del artifacts[name]
+            for name in list(started):
+                found = self._finish(started.pop(name), progress)
+                if keep is None or name in keep:
+                    artifacts[name] = found
+        finally:
+            for begun in started.values():  # a later stage failed: its locks are let go
+                begun.lock.close()
         return artifacts
+
+    def _stage(self, stage: Stage, config: Any, artifacts: dict[str, Any],
+               progress: Any) -> _Started | None:  # fmt: skip
+        """Run (or read back) ``stage`` into ``artifacts``; a stage begun (``Stage.started``)
+        whose artifact is still to come is returned instead."""
+        if progress is not None:
+            progress.started(stage.name)
+        key = self._key(stage, config, [self.records[n].key for n in stage.inputs])
+        path = self.cache_dir / f"{stage.name}-{key[:20]}.pkl"
+        start = time.perf_counter()
+        found = None
+        with ExitStack() as lock:
+            if stage.store:
+                self.cache_dir.mkdir(parents=True, exist_ok=True)
+                lock.enter_context(_locked(path, f"stage {stage.name!r}"))
+                found = None if self.force else self._read(stage, path)
+            if found is not None:
+                artifacts[stage.name] = found[0]
+            else:
+                computed = self._compute(stage, config, artifacts)
+                if stage.started:  # the lock is held until its artifact is written
+                    seconds = time.perf_counter() - start
+                    return _Started(stage, computed, key, path if stage.store else None,
+                                    lock.pop_all(), seconds)  # fmt: skip
+                artifacts[stage.name] = computed
+                if stage.store:
+                    # labelled with its stage: an entry copied over another's is caught
+                    write_entry(path, (stage.name, computed))
+        cached = (found is not None) if stage.store else None
+        self._record(stage.name, StageRecord(key, cached, time.perf_counter() - start), progress)
+        return None
+
+    def _finish(self, begun: _Started, progress: Any) -> Any:
+        """The artifact of a stage begun (waiting for the work it handed out), written to the
+        cache; its lock let go."""
+        start = time.perf_counter()
+        with begun.lock:
+            found = begun.finish()
+            if begun.path is not None:
+                write_entry(begun.path, (begun.stage.name, found))
+        seconds = begun.seconds + time.perf_counter() - start
+        cached = False if begun.path is not None else None
+        self._record(begun.stage.name, StageRecord(begun.key, cached, seconds), progress)
+        return found
+
+    def _record(self, name: str, record: StageRecord, progress: Any) -> None:
+        self.records[name] = record
+        if progress is not None:
+            progress.done(name, record.wall_s, record.cached)
 
     def _compute(self, stage: Stage, config: Any, artifacts: dict[str, Any]) -> Any:
         upstream = {name: artifacts[name] for name in stage.inputs}

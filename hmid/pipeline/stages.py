@@ -7,6 +7,7 @@ load -> denoise -> friction -> signals -> split -> fit -> compare -> loop. Each 
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
@@ -464,19 +465,31 @@ def freerun_blocks(config: ExperimentConfig, split: Split, export: dict) -> Free
 
 def freerun(
     config: ExperimentConfig, freerun_blocks: FreeRunBlocks, fit: list[Fitted], export: dict
-) -> dict:
+) -> Callable[[], dict]:
     """Every exported model run free over the held-out blocks (:mod:`hmid.portable.freerun`),
-    by name; a model that cannot run free says why in one line."""
+    by name; a model that cannot run free says why in one line. A stage begun
+    (:attr:`Stage.started <hmid.pipeline.runner.Stage.started>`): the models are handed to the
+    run's worker now and run there while the run compares the models and runs the loop; what
+    the callable returned gives is every model's run, those no worker has begun run here. With
+    no worker, every model runs when the callable is called (after the stages that hold the
+    signals: a long log's are let go before the free runs import JAX)."""
+    tasks = Tasks(ahead=None)  # every model at once: the worker goes on while the run does
+    if not tasks.workers:
+        return lambda: _free_runs(config, freerun_blocks, fit, export, tasks)()
+    return _free_runs(config, freerun_blocks, fit, export, tasks)
+
+
+def _free_runs(config: ExperimentConfig, freerun_blocks: FreeRunBlocks, fit: list[Fitted],
+               export: dict, tasks: Tasks) -> Callable[[], dict]:  # fmt: skip
+    """:func:`freerun`'s models submitted to ``tasks``; the callable gives their runs."""
     from hmid.portable import Model
     from hmid.portable.freerun import FreeRun, simulate_signals
 
     held = freerun_blocks.rows
     out: dict = {}
-    # shared with the run's worker, idle by now (hmid.workers), each process taking the next
-    # model when it is free: the programs are read back from disk (:mod:`.freerun.stored`,
-    # JAX's compilation cache), so a process pays a few tenths of a second to load a shape's,
-    # less than a model's runs; a model runs the same program, to the same numbers, wherever
-    tasks = Tasks(ahead=1) if len(export) > 1 else Tasks(workers=0)
+    # the programs are read back from disk (:mod:`.freerun.stored`, JAX's compilation cache),
+    # so a process pays a few tenths of a second to load a shape's, less than a model's runs;
+    # a model runs the same program, to the same numbers, wherever
     for name, document in export.items():
         if isinstance(document, str):
             out[name] = FreeRun(name, (), document)
@@ -488,9 +501,13 @@ def freerun(
         run = partial(simulate_signals, draws=FREE_RUN_DRAWS, level=FREE_RUN_LEVEL,
                       seed=config.seed, held=held)  # fmt: skip
         tasks.submit(run, Model(document, draws=draws), held.signals, held.spans)
-    for run in tasks.results():
-        out[run.model] = replace(run.thinned(), note=freerun_blocks.note)  # whole runs' scores
-    return out
+
+    def finish() -> dict:
+        for run in tasks.results():
+            out[run.model] = replace(run.thinned(), note=freerun_blocks.note)  # whole runs'
+        return out
+
+    return finish
 
 
 #: Draws of a model's coefficients behind its free run's band, and the band's level.

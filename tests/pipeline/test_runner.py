@@ -177,3 +177,59 @@ def test_a_second_run_waits_for_the_stage_being_computed_and_reuses_it(tmp_path)
     assert results == [{"slow": 4}, {"slow": 4}]
     assert calls == ["slow"]
     assert any("another run is computing stage 'slow'" in str(w.message) for w in caught)
+
+
+def _started_stages(calls):
+    """A stage begun (its work goes on) before a stage that does not read it, and one after
+    that reads it."""
+
+    def begun(config):
+        calls.append("begun")
+        return lambda: calls.append("finished") or config.a * 10
+
+    def between(config):
+        calls.append("between")
+        return config.b
+
+    def reader(config, begun, between):
+        calls.append("reader")
+        return begun + between
+
+    return (
+        Stage("begun", begun, (), lambda c: {"a": c.a}, started=True),
+        Stage("between", between, (), lambda c: {"b": c.b}),
+        Stage("reader", reader, ("begun", "between")),
+    )
+
+
+def test_a_started_stage_is_finished_when_a_later_stage_reads_it_and_cached(tmp_path):
+    calls = []
+    runner = Runner(tmp_path)
+    assert runner.run(_started_stages(calls), Cfg(1, 2)) == {"begun": 10, "between": 2,
+                                                             "reader": 12}  # fmt: skip
+    assert calls == ["begun", "between", "finished", "reader"]
+    assert list(runner.records) == ["between", "begun", "reader"]  # recorded when finished
+    assert runner.records["begun"].cached is False
+    calls.clear()
+    again = Runner(tmp_path)
+    assert again.run(_started_stages(calls), Cfg(1, 2))["reader"] == 12
+    assert calls == [] and again.records["begun"].cached
+
+
+def test_a_started_stage_no_stage_reads_is_finished_at_the_end(tmp_path):
+    calls = []
+    stages = _started_stages(calls)[:2]
+    assert Runner(tmp_path).run(stages, Cfg(1, 2), keep=("begun",)) == {"begun": 10}
+    assert calls == ["begun", "between", "finished"]
+
+
+def test_a_failure_after_a_started_stage_lets_its_lock_go(tmp_path):
+    def fails(config):
+        raise RuntimeError("later stage")
+
+    stages = (*_started_stages([])[:1], Stage("fails", fails))
+    with pytest.raises(RuntimeError, match="later stage"):
+        Runner(tmp_path).run(stages, Cfg(1, 2))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a held lock would warn that another run computes it
+        assert Runner(tmp_path).run(stages[:1], Cfg(1, 2)) == {"begun": 10}
