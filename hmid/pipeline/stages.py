@@ -18,7 +18,7 @@ import pandas as pd
 
 from hmid.balance import RigSection, Signals
 from hmid.denoise import Piece, check_time_base, denoise_log, pieces
-from hmid.errors import ConfigError, FitError, HmidWarning, LogError
+from hmid.errors import ConfigError, FitError, HmidError, HmidWarning, LogError
 from hmid.experiment import ExperimentConfig, log_units
 from hmid.families import FitContext, FitData, Fitted
 from hmid.files import sha256
@@ -483,7 +483,7 @@ def _free_runs(config: ExperimentConfig, freerun_blocks: FreeRunBlocks, fit: lis
                export: dict, tasks: Tasks) -> Callable[[], dict]:  # fmt: skip
     """:func:`freerun`'s models submitted to ``tasks``; the callable gives their runs."""
     from hmid.portable import Model
-    from hmid.portable.freerun import FreeRun, simulate_signals
+    from hmid.portable.freerun import FreeRun
 
     held = freerun_blocks.rows
     out: dict = {}
@@ -498,7 +498,7 @@ def _free_runs(config: ExperimentConfig, freerun_blocks: FreeRunBlocks, fit: lis
         posterior_draws = _draws(fitted)
         draws = posterior_draws() if posterior_draws else None
         out[name] = None  # keeps the models' order
-        run = partial(simulate_signals, draws=FREE_RUN_DRAWS, level=FREE_RUN_LEVEL,
+        run = partial(free_run_or_why, draws=FREE_RUN_DRAWS, level=FREE_RUN_LEVEL,
                       seed=config.seed, held=held)  # fmt: skip
         tasks.submit(run, Model(document, draws=draws), held.signals, held.spans)
 
@@ -512,6 +512,24 @@ def _free_runs(config: ExperimentConfig, freerun_blocks: FreeRunBlocks, fit: lis
 
 #: Draws of a model's coefficients behind its free run's band, and the band's level.
 FREE_RUN_DRAWS, FREE_RUN_LEVEL = 20, 0.9
+
+#: What one model's free run may raise from its numbers (a solve or a band that overflows, a
+#: degenerate draw, XLA's runtime errors are RuntimeErrors): the model's line in the report,
+#: not the run's end. A programming error (TypeError, AttributeError, ...) still raises.
+FREE_RUN_ERRORS = (HmidError, ArithmeticError, ValueError, np.linalg.LinAlgError, RuntimeError)
+
+
+def free_run_or_why(model, signals, spans, **options):
+    """:func:`hmid.portable.freerun.simulate_signals`, or, where it raises one of
+    :data:`FREE_RUN_ERRORS`, a free run without blocks that says why in one line: a failing
+    model's free run never takes the other models' or the run down with it."""
+    from hmid.portable import freerun
+
+    try:
+        return freerun.simulate_signals(model, signals, spans, **options)
+    except FREE_RUN_ERRORS as err:
+        why = " ".join(str(err).split()) or "no message"
+        return freerun.FreeRun(model.name, (), f"free run failed ({type(err).__name__}: {why})")
 
 
 def file_stem(model_name: str) -> str:

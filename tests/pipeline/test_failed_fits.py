@@ -81,3 +81,29 @@ def test_a_prediction_orders_above_the_force_is_a_divergence(workspace, ch4_rig)
     assert reason.startswith("it diverged: its prediction on the held-out rows")
     fits = Fits(tuple(good))
     assert list(fits) == good and fits[0] is good[0] and len(fits) == 1 and not fits.failed
+
+
+def test_a_free_run_that_raises_is_the_models_line_not_the_runs_end(monkeypatch):
+    """One model's free run failing on its numbers (here a band that overflows) leaves a run
+    without blocks that says why; a programming error still raises."""
+    from types import SimpleNamespace
+
+    import hmid.portable.freerun as freerun
+    from hmid.pipeline.stages import free_run_or_why
+
+    def overflowing(model, signals, spans, **options):
+        raise FloatingPointError("overflow encountered in the band's draws")
+
+    monkeypatch.setattr(freerun, "simulate_signals", overflowing)
+    run = free_run_or_why(SimpleNamespace(name="sls"), None, [], draws=20)
+    assert run.model == "sls" and run.runs == ()
+    assert run.skipped == (
+        "free run failed (FloatingPointError: overflow encountered in the band's draws)"
+    )
+
+    def mistaken(model, signals, spans, **options):
+        raise TypeError("simulate_signals() got an unexpected keyword argument")
+
+    monkeypatch.setattr(freerun, "simulate_signals", mistaken)
+    with pytest.raises(TypeError):
+        free_run_or_why(SimpleNamespace(name="sls"), None, [])
