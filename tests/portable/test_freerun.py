@@ -292,3 +292,24 @@ def test_a_stored_program_is_read_back_without_tracing_and_a_damaged_one_is_trac
         damaged = np.asarray(stored(program(), "f", "shape", tmp_path)(x, k))
         assert len(traced) == 2 and np.array_equal(first, damaged)
         assert np.array_equal(first, np.asarray(jax.jit(program())(x, k)))
+
+
+def test_writing_a_stored_program_removes_the_programs_of_other_builds(tmp_path):
+    """An upgrade (other sources or library versions) leaves no dead programs: the files of
+    other builds, this format's and the one before it, go when a program is written; this
+    build's other programs stay."""
+    import jax
+
+    from hmid.portable.freerun.stored import stored
+
+    folder = tmp_path / "freerun-programs"
+    folder.mkdir()
+    stale = [folder / "f-000000000000-0123456789abcdef.exported", folder / f"g-{'0' * 24}.exported"]
+    for path in stale:
+        path.write_bytes(b"a program of another build")
+    x = np.linspace(0.0, 1.0, 5)
+    with jax.enable_x64(True):
+        stored(lambda y: y * 2.0, "f", "shape", tmp_path)(x)
+        stored(lambda y: y + 1.0, "g", "shape", tmp_path)(x)
+    kept = sorted(path.name.split("-")[0] for path in folder.glob("*.exported"))
+    assert kept == ["f", "g"] and not any(path.exists() for path in stale)

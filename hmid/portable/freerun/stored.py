@@ -13,14 +13,18 @@ Every call goes through the exported program, whether just traced or read back, 
 the same numbers either way. A file is keyed by the program's name, its
 :class:`~hmid.portable.freerun.program.Shape`, its arguments' shapes and dtypes, the platform,
 the source of the modules that trace it and the versions of the libraries that do; one that
-cannot be read is traced again and rewritten. Without a compilation-cache folder (tests, a
-notebook) the programs are jitted as they are, and nothing is written.
+cannot be read is traced again and rewritten. The file's name holds the build (the sources,
+the libraries and the platform) apart from the rest, so that when a program is written, the
+files of any other build, which no process of this one reads, are removed: an upgrade leaves no
+dead programs behind. Without a compilation-cache folder (tests, a notebook) the programs are
+jitted as they are, and nothing is written.
 """
 
 from __future__ import annotations
 
 import hashlib
 from collections.abc import Callable
+from functools import lru_cache
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -69,7 +73,8 @@ class _Stored:
         import jax
         from jax import export
 
-        path = self.folder / f"{self.name}-{_digest(self.shape, key)}.exported"
+        build = _build()
+        path = self.folder / f"{self.name}-{build}-{_digest(self.shape, key)}.exported"
         try:
             return export.deserialize(bytearray(read_entry(path)))
         except StaleEntry:  # none yet, or damaged: traced again, and rewritten
@@ -79,6 +84,9 @@ class _Stored:
             # no derivatives: a free run is never differentiated, and their closures do not
             # serialise
             write_entry(path, bytes(exported.serialize(vjp_order=0)))
+            for other in self.folder.glob("*.exported"):
+                if f"-{build}-" not in other.name:  # another build's: never read again
+                    other.unlink(missing_ok=True)
         except OSError:  # a folder that cannot be written: traced in every process, as before
             pass
         return exported
@@ -102,10 +110,17 @@ def _dtype(a) -> np.dtype:
 
 
 def _digest(shape: str, key: tuple) -> str:
-    """What a program's file is keyed by, hashed (see the module's docstring)."""
+    """A program's shape and its arguments' shapes and dtypes, hashed."""
+    return hashlib.sha256(f"{shape} {key}".encode()).hexdigest()[:16]
+
+
+@lru_cache(maxsize=1)
+def _build() -> str:
+    """What every program of this process is traced by, hashed: the platform, the source of
+    :data:`SOURCES` and the versions of :data:`LIBRARIES` (see the module's docstring)."""
     import jax
 
-    digest = hashlib.sha256(f"{shape} {key} {jax.default_backend()}".encode())
+    digest = hashlib.sha256(jax.default_backend().encode())
     here = Path(__file__).parent
     for source in SOURCES:
         digest.update((here / source).read_bytes())
@@ -114,4 +129,4 @@ def _digest(shape: str, key: tuple) -> str:
             digest.update(f"{library}=={metadata.version(library)}".encode())
         except metadata.PackageNotFoundError:
             digest.update(f"{library} absent".encode())
-    return digest.hexdigest()[:24]
+    return digest.hexdigest()[:12]
