@@ -37,9 +37,9 @@ from hmid.loop.diagnostics import pattern_scan
 from hmid.loop.parallel import screen_round
 from hmid.loop.result import Alternative, LoopResult, added_effect, finish, own_parameters
 from hmid.loop.screen import PROFILE_STEP, Screen
-from hmid.loop.selection import Folds, bootstrap, change, out_of_fold
+from hmid.loop.selection import Folds, change, out_of_fold
 from hmid.metrics import score
-from hmid.stats import NestedTest, holm, residual_tau_int
+from hmid.stats import NestedTest, block_resamples, holm, residual_tau_int
 
 
 @dataclass(frozen=True)
@@ -120,7 +120,7 @@ def _run_loop(signals, base: LoopBase, spec: LoopSpec, setting: Setting, seed,
     folds = Folds.of(signals, spec.folds, spec.block_s)
     # the same blocks dealt by log: what a split that holds out whole logs asks of an addition
     by_log = Folds.by_log(signals, spec.block_s) if across_logs else None
-    counts = bootstrap(spec.draws, folds.blocks, seed)
+    counts = block_resamples(spec.draws, folds.blocks, seed)
     signals = with_elastic(signals, current, setting.position)
     has_elastic = bool(np.any(signals[ELASTIC])) if ELASTIC in signals else False
     remaining = [c for c in candidates if has_elastic or not c.elastic]

@@ -101,13 +101,6 @@ class Change:
         return self.upper < -margin
 
 
-def bootstrap(draws: int, blocks: int, seed: int) -> np.ndarray:
-    """Counts (draws, blocks) of each block in each resample, from ``seed``: the same resamples
-    for every comparison of a run, so paired differences share them."""
-    rng = np.random.default_rng(seed)
-    return rng.multinomial(blocks, np.full(blocks, 1.0 / blocks), size=draws)
-
-
 def change(
     before: np.ndarray, after: np.ndarray, folds: Folds, counts: np.ndarray, confidence: float
 ) -> Change:

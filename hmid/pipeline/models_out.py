@@ -91,9 +91,18 @@ def _free_run_keys(table: pd.DataFrame) -> tuple[str, ...]:
     return tuple(c for c in table.columns if c.startswith(keep) and "explained" not in c)
 
 
+_NO = (np.nan, np.nan)  # no band, no interval of its coverage
+
+
+def _level() -> str:
+    from hmid.portable.freerun import COVERAGE_INTERVAL
+
+    return f"{100 * COVERAGE_INTERVAL:g} %"
+
+
 def free_run_table(free_runs: dict, unit: str, position: str | None) -> pd.DataFrame:
     """One row per model: the free run's scores beside what it simulated, or why it did not."""
-    rows = []
+    rows, level = [], _level()
     for name, run in free_runs.items():
         scores = run.scores() if run.runs else {}
         first = min((r.diverged_at for r in run.runs if r.diverged_at is not None), default=None)
@@ -106,6 +115,8 @@ def free_run_table(free_runs: dict, unit: str, position: str | None) -> pd.DataF
             f"rmse explained [{unit}]": scores.get("rmse explained", np.nan),
             f"band coverage ({100 * run.level:g} %)" if run.level else "band coverage": scores.get(
                 "band coverage", np.nan),
+            f"band coverage, {level} interval low": scores.get("band coverage interval", _NO)[0],
+            f"band coverage, {level} interval high": scores.get("band coverage interval", _NO)[1],
             "band coverage (training)": np.nan if cal is None else cal.coverage,
             "disturbance": "" if cal is None else cal.kind,
             "disturbance scale": cal.scale if cal is not None and cal.reachable else np.nan,

@@ -27,7 +27,8 @@ correlation. The estimators, and why each:
   (:class:`ARWhite`), for the friction stage.
 * **inference on n_eff** (:mod:`._effective`): nested-model F-test and BIC
   (:class:`NestedTest`), Holm's correction (:func:`holm`) and profile-likelihood intervals
-  (:func:`likelihood_interval`), for the loop.
+  (:func:`likelihood_interval`), for the loop; a block bootstrap's resamples
+  (:func:`block_resamples`), for the loop's paired changes and the free run's band coverage.
 """
 
 from hmid.stats._ar_white import ARWhite, fit_ar_white
@@ -42,7 +43,7 @@ from hmid.stats._autocorrelation import (
     residual_tau_int,
     sokal_window,
 )
-from hmid.stats._effective import NestedTest, holm, likelihood_interval
+from hmid.stats._effective import NestedTest, block_resamples, holm, likelihood_interval
 from hmid.stats._projection import FittedCorrelation, fitted_correlation, lag_traces
 from hmid.stats._sandwich import autocov_covariance, hac_covariance, hac_lags
 
@@ -54,6 +55,7 @@ __all__ = [
     "acf_lags",
     "autocorrelation",
     "autocov_covariance",
+    "block_resamples",
     "fit_ar_white",
     "fitted_correlation",
     "hac_covariance",

@@ -84,3 +84,11 @@ def likelihood_interval(
         end = u[i] + (u[j] - u[i]) * (limit - root[i]) / (root[j] - root[i])
         ends.append(float(np.exp(end)) if logarithmic else float(end))
     return min(ends[0], value), max(ends[1], value)
+
+
+def block_resamples(draws: int, blocks: int, seed: int) -> np.ndarray:
+    """A block bootstrap's resamples: counts (draws, blocks) of each block in each resample,
+    blocks drawn with replacement, from ``seed`` (the same resamples wherever the same seed and
+    blocks are given, so paired statistics share them)."""
+    rng = np.random.default_rng(seed)
+    return rng.multinomial(blocks, np.full(blocks, 1.0 / blocks), size=draws)

@@ -6,7 +6,8 @@ from _loop_data import make_data
 
 from hmid.balance import Columns, Structure
 from hmid.balance.kinds import make_term
-from hmid.loop.selection import Folds, bootstrap, change, out_of_fold
+from hmid.loop.selection import Folds, change, out_of_fold
+from hmid.stats import block_resamples
 
 
 def test_folds_hold_every_training_row_once_in_blocks_within_segments():
@@ -40,7 +41,7 @@ def test_out_of_fold_residuals_come_from_fits_that_did_not_see_the_row():
 def test_the_bootstrap_bound_says_better_only_when_the_blocks_agree():
     signals, _ = make_data(None)
     folds = Folds.of(signals, folds=5, block_s=1.0)
-    counts = bootstrap(400, folds.blocks, seed=1)
+    counts = block_resamples(400, folds.blocks, seed=1)
     rng = np.random.default_rng(0)
     before = np.where(signals.train, rng.normal(0, 1.0, len(signals)), np.nan)
     same = change(before, before, folds, counts, 0.95)
@@ -53,7 +54,7 @@ def test_the_bootstrap_bound_says_better_only_when_the_blocks_agree():
     mixed[first] *= 0.5
     mixed[~first & signals.train] *= 1.3
     assert not change(before, mixed, folds, counts, 0.95).better(0.0)
-    np.testing.assert_array_equal(counts, bootstrap(400, folds.blocks, seed=1))  # seeded
+    np.testing.assert_array_equal(counts, block_resamples(400, folds.blocks, seed=1))  # seeded
 
 
 def test_a_refining_term_takes_the_place_of_the_columns_its_span_holds():

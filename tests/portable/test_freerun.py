@@ -313,3 +313,24 @@ def test_writing_a_stored_program_removes_the_programs_of_other_builds(tmp_path)
         stored(lambda y: y + 1.0, "g", "shape", tmp_path)(x)
     kept = sorted(path.name.split("-")[0] for path in folder.glob("*.exported"))
     assert kept == ["f", "g"] and not any(path.exists() for path in stale)
+
+
+def test_the_band_coverage_comes_with_a_block_bootstrap_interval():
+    """Blocks covered 3 of 4 and 4 of 4: 7 of 8 pooled; the interval spans what resampling the
+    two blocks gives (0.75 with the first twice, 1 with the second twice) and holds the pooled
+    coverage. One block gives no spread; a run without a band has no coverage at all."""
+    from hmid.portable.freerun import FreeRun, coverage_interval
+    from hmid.portable.freerun.scores import BlockRun
+
+    t, x = np.arange(4.0), np.array([0.0, 1.0, 2.0, 3.0])
+
+    def block(low: float) -> BlockRun:
+        band = (np.full(4, low), np.full(4, 3.0))
+        return BlockRun("log", t, x, x + 0.1, x, None, None, band=band)
+
+    scores = FreeRun("m", (block(0.5), block(0.0))).scores()
+    assert scores["band coverage"] == 7 / 8
+    assert scores["band coverage interval"] == (0.75, 1.0)
+    assert coverage_interval([np.array([True, True, False])]) == (2 / 3, 2 / 3)
+    bare = FreeRun("m", (BlockRun("log", t, x, x, x, None, None),)).scores()
+    assert np.isnan(bare["band coverage"]) and np.isnan(bare["band coverage interval"]).all()

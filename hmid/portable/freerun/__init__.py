@@ -24,9 +24,10 @@ from hmid.portable.freerun.run import (
     simulate_signals,
     within_budget,
 )
-from hmid.portable.freerun.scores import BlockRun, FreeRun
+from hmid.portable.freerun.scores import COVERAGE_INTERVAL, BlockRun, FreeRun, coverage_interval
 
 __all__ = [
+    "COVERAGE_INTERVAL",
     "BlockRun",
     "Calibration",
     "Equation",
@@ -41,6 +42,7 @@ __all__ = [
     "calibration_pieces",
     "chunks",
     "coefficient_draws",
+    "coverage_interval",
     "disturbances",
     "equation",
     "free_run",
