@@ -127,8 +127,8 @@ def track(
         substeps=plant.substeps,
     )  # fmt: skip
     effort, pressure, valve = plant.commanded(traj, commands, ff)
-    k = round(ref.hold * plant.rate)  # sample k on: after the hold's last command
     scored = ref.scored()
+    k = len(ref.t) - len(scored.t)  # sample k on: after the hold's last command, on its grid
     t, output = traj.t[: len(traj.t) - k], getattr(traj, plant.tracked)[k:]  # the rig's clock
     valve = None if valve is None else valve[k:]
     metrics = tracking_score(scored, t, output, plant.resolution, valve)

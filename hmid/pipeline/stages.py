@@ -18,7 +18,7 @@ import pandas as pd
 
 from hmid.balance import RigSection, Signals
 from hmid.denoise import Piece, check_time_base, denoise_log, pieces
-from hmid.errors import ConfigError, FitError, HmidError, HmidWarning, LogError
+from hmid.errors import ConfigError, FitError, HmidWarning, LogError
 from hmid.experiment import ExperimentConfig, log_units
 from hmid.families import FitContext, FitData, Fitted
 from hmid.files import sha256
@@ -32,7 +32,8 @@ from hmid.summary import LogSummary, summarize
 from hmid.workers import Tasks, beside
 
 if TYPE_CHECKING:
-    from hmid.portable.freerun import FreeRunRows
+    from hmid.portable import Model
+    from hmid.portable.freerun import FreeRun, FreeRunRows
 
 
 @dataclass(frozen=True)
@@ -513,21 +514,19 @@ def _free_runs(config: ExperimentConfig, freerun_blocks: FreeRunBlocks, fit: lis
 #: Draws of a model's coefficients behind its free run's band, and the band's level.
 FREE_RUN_DRAWS, FREE_RUN_LEVEL = 20, 0.9
 
-#: What one model's free run may raise from its numbers (a solve or a band that overflows, a
-#: degenerate draw, XLA's runtime errors are RuntimeErrors): the model's line in the report,
-#: not the run's end. A programming error (TypeError, AttributeError, ...) still raises.
-FREE_RUN_ERRORS = (HmidError, ArithmeticError, ValueError, np.linalg.LinAlgError, RuntimeError)
 
-
-def free_run_or_why(model, signals, spans, **options):
-    """:func:`hmid.portable.freerun.simulate_signals`, or, where it raises one of
-    :data:`FREE_RUN_ERRORS`, a free run without blocks that says why in one line: a failing
-    model's free run never takes the other models' or the run down with it."""
+def free_run_or_why(model: Model, signals: Signals, spans: list, **options) -> FreeRun:
+    """:func:`hmid.portable.freerun.simulate_signals`, or, where it raises one of the fit's
+    :data:`~hmid.pipeline.fits.FIT_ERRORS` (hmid's own, an overflow, a singular matrix: the
+    model's numbers, the same on every run of the same data, so the line is cached as the run
+    would be), a free run without blocks that says why in one line: one model's failing free
+    run never takes the other models' or the run down with it. Anything else (a programming
+    error, XLA out of memory) still raises."""
     from hmid.portable import freerun
 
     try:
         return freerun.simulate_signals(model, signals, spans, **options)
-    except FREE_RUN_ERRORS as err:
+    except FIT_ERRORS as err:
         why = " ".join(str(err).split()) or "no message"
         return freerun.FreeRun(model.name, (), f"free run failed ({type(err).__name__}: {why})")
 

@@ -28,7 +28,7 @@ correlation. The estimators, and why each:
 * **inference on n_eff** (:mod:`._effective`): nested-model F-test and BIC
   (:class:`NestedTest`), Holm's correction (:func:`holm`) and profile-likelihood intervals
   (:func:`likelihood_interval`), for the loop; a block bootstrap's resamples
-  (:func:`block_resamples`), for the loop's paired changes and the free run's band coverage.
+  (:func:`block_resamples`), for the loop's paired changes.
 """
 
 from hmid.stats._ar_white import ARWhite, fit_ar_white

@@ -85,7 +85,8 @@ def test_a_prediction_orders_above_the_force_is_a_divergence(workspace, ch4_rig)
 
 def test_a_free_run_that_raises_is_the_models_line_not_the_runs_end(monkeypatch):
     """One model's free run failing on its numbers (here a band that overflows) leaves a run
-    without blocks that says why; a programming error still raises."""
+    without blocks that says why; a programming error (a wrong call, numpy's shape mismatch)
+    still raises."""
     from types import SimpleNamespace
 
     import hmid.portable.freerun as freerun
@@ -101,9 +102,11 @@ def test_a_free_run_that_raises_is_the_models_line_not_the_runs_end(monkeypatch)
         "free run failed (FloatingPointError: overflow encountered in the band's draws)"
     )
 
-    def mistaken(model, signals, spans, **options):
-        raise TypeError("simulate_signals() got an unexpected keyword argument")
+    for mistake in (TypeError("an unexpected keyword argument"), ValueError("shapes (3,) (4,)")):
 
-    monkeypatch.setattr(freerun, "simulate_signals", mistaken)
-    with pytest.raises(TypeError):
-        free_run_or_why(SimpleNamespace(name="sls"), None, [])
+        def mistaken(model, signals, spans, mistake=mistake, **options):
+            raise mistake
+
+        monkeypatch.setattr(freerun, "simulate_signals", mistaken)
+        with pytest.raises(type(mistake)):
+            free_run_or_why(SimpleNamespace(name="sls"), None, [])

@@ -296,29 +296,38 @@ def test_a_stored_program_is_read_back_without_tracing_and_a_damaged_one_is_trac
 
 def test_writing_a_stored_program_removes_the_programs_of_other_builds(tmp_path):
     """An upgrade (other sources or library versions) leaves no dead programs: the files of
-    other builds, this format's and the one before it, go when a program is written; this
-    build's other programs stay."""
+    other builds unused for a day, this format's and the one before it, go when a program is
+    written; another build's program in use, and this build's other programs, stay."""
+    import os
+    import time
+
     import jax
 
-    from hmid.portable.freerun.stored import stored
+    from hmid.portable.freerun.stored import UNUSED_S, stored
 
     folder = tmp_path / "freerun-programs"
     folder.mkdir()
     stale = [folder / "f-000000000000-0123456789abcdef.exported", folder / f"g-{'0' * 24}.exported"]
-    for path in stale:
+    live = folder / "f-111111111111-0123456789abcdef.exported"
+    for path in (*stale, live):
         path.write_bytes(b"a program of another build")
+    old = time.time() - UNUSED_S - 60
+    for path in stale:
+        os.utime(path, (old, old))
     x = np.linspace(0.0, 1.0, 5)
     with jax.enable_x64(True):
         stored(lambda y: y * 2.0, "f", "shape", tmp_path)(x)
         stored(lambda y: y + 1.0, "g", "shape", tmp_path)(x)
-    kept = sorted(path.name.split("-")[0] for path in folder.glob("*.exported"))
-    assert kept == ["f", "g"] and not any(path.exists() for path in stale)
+    assert live.exists() and not any(path.exists() for path in stale)
+    assert len(list(folder.glob("*.exported"))) == 3
 
 
-def test_the_band_coverage_comes_with_a_block_bootstrap_interval():
-    """Blocks covered 3 of 4 and 4 of 4: 7 of 8 pooled; the interval spans what resampling the
-    two blocks gives (0.75 with the first twice, 1 with the second twice) and holds the pooled
-    coverage. One block gives no spread; a run without a band has no coverage at all."""
+def test_the_band_coverage_comes_with_an_interval_over_its_blocks():
+    """Blocks covered 3 of 4 and 4 of 4: 7 of 8 pooled, the interval the ratio's cluster
+    standard error (1/8 here) times t(1)'s 95 % point, clipped to [0, 1]. One block gives no
+    interval; a run without a band has no coverage at all."""
+    from scipy import stats
+
     from hmid.portable.freerun import FreeRun, coverage_interval
     from hmid.portable.freerun.scores import BlockRun
 
@@ -330,7 +339,8 @@ def test_the_band_coverage_comes_with_a_block_bootstrap_interval():
 
     scores = FreeRun("m", (block(0.5), block(0.0))).scores()
     assert scores["band coverage"] == 7 / 8
-    assert scores["band coverage interval"] == (0.75, 1.0)
-    assert coverage_interval([np.array([True, True, False])]) == (2 / 3, 2 / 3)
+    low, high = scores["band coverage interval"]
+    assert low == pytest.approx(7 / 8 - stats.t.ppf(0.95, 1) / 8) and high == 1.0
+    assert np.isnan(coverage_interval([np.array([True, True, False])])).all()
     bare = FreeRun("m", (BlockRun("log", t, x, x, x, None, None),)).scores()
     assert np.isnan(bare["band coverage"]) and np.isnan(bare["band coverage interval"]).all()

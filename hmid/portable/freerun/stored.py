@@ -15,14 +15,16 @@ the same numbers either way. A file is keyed by the program's name, its
 the source of the modules that trace it and the versions of the libraries that do; one that
 cannot be read is traced again and rewritten. The file's name holds the build (the sources,
 the libraries and the platform) apart from the rest, so that when a program is written, the
-files of any other build, which no process of this one reads, are removed: an upgrade leaves no
-dead programs behind. Without a compilation-cache folder (tests, a notebook) the programs are
-jitted as they are, and nothing is written.
+files of any other build unused for a day (:data:`UNUSED_S`; a file read is marked used) are
+removed: an upgrade leaves no dead programs behind. Without a compilation-cache folder (tests,
+a notebook) the programs are jitted as they are, and nothing is written.
 """
 
 from __future__ import annotations
 
 import hashlib
+import os
+import time
 from collections.abc import Callable
 from functools import lru_cache
 from importlib import metadata
@@ -76,20 +78,46 @@ class _Stored:
         build = _build()
         path = self.folder / f"{self.name}-{build}-{_digest(self.shape, key)}.exported"
         try:
-            return export.deserialize(bytearray(read_entry(path)))
+            exported = export.deserialize(bytearray(read_entry(path)))
         except StaleEntry:  # none yet, or damaged: traced again, and rewritten
             pass
+        else:
+            _touch(path)  # in use: another build's pruning leaves it
+            return exported
         exported = export.export(jax.jit(self.fn))(*jax.tree.map(np.asarray, args))
         try:
             # no derivatives: a free run is never differentiated, and their closures do not
             # serialise
             write_entry(path, bytes(exported.serialize(vjp_order=0)))
-            for other in self.folder.glob("*.exported"):
-                if f"-{build}-" not in other.name:  # another build's: never read again
-                    other.unlink(missing_ok=True)
+            _prune(self.folder, build)
         except OSError:  # a folder that cannot be written: traced in every process, as before
             pass
         return exported
+
+
+#: Another build's program unused for this long is removed (a day: two checkouts or
+#: environments sharing a results folder keep each other's programs while both are in use)
+UNUSED_S = 86_400.0
+
+
+def _touch(path: Path) -> None:
+    """Mark ``path`` used now (its modification time), where the folder allows."""
+    try:
+        os.utime(path)
+    except OSError:
+        pass
+
+
+def _prune(folder: Path, build: str) -> None:
+    """Remove the programs of builds other than ``build`` unused for :data:`UNUSED_S`: after
+    an upgrade, no process of the old build reads them again."""
+    now = time.time()
+    for other in folder.glob("*.exported"):
+        try:
+            if f"-{build}-" not in other.name and now - other.stat().st_mtime > UNUSED_S:
+                other.unlink()
+        except OSError:  # gone already (another process pruned it), or not ours to remove
+            pass
 
 
 def _leaves(args) -> list:
