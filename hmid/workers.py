@@ -242,6 +242,15 @@ class Tasks:
         else:
             task.future = _finished(task.here())
 
+    def cancel(self) -> None:
+        """Drop every task not collected: those no worker has begun are cancelled, those
+        running end in their worker and their results are let go (a run that failed after
+        handing work out leaves the shared pool free for what comes next)."""
+        tasks, self._tasks = self._tasks, []
+        for task in tasks:
+            if task.future is not None:
+                task.future.cancel()
+
     @property
     def queued(self) -> int:
         """Tasks submitted whose results are not yet collected."""

@@ -160,3 +160,20 @@ def test_shutdown_leaves_no_pool_thread_for_the_exit_hook(tmp_path):
     assert set(threading.enumerate()) - before  # the pool's thread (and its queue's) ran
     workers_module.shutdown()
     assert not [t for t in set(threading.enumerate()) - before if t.is_alive()]
+
+
+def test_cancel_drops_what_no_worker_has_begun(tmp_path):
+    """A run that fails after handing work out: the task running ends in its worker, the ones
+    queued behind it (beyond the one the pool has already passed to the worker's queue) never
+    start, and nothing is left to collect."""
+    tasks = Tasks(workers=1).start()
+    tasks.submit(time.sleep, 0.5)
+    paths = [tmp_path / f"{k}.pid" for k in range(4)]
+    for path in paths:
+        tasks.submit(write_pid, path)
+    tasks.cancel()
+    assert tasks.queued == 0 and tasks.results() == []
+    after = Tasks(workers=1)  # the pool's next task waits for whatever the worker still runs
+    after.submit(square, 3)
+    assert after.results() == [9]
+    assert sum(path.exists() for path in paths) <= 1  # at most the one already passed on

@@ -1,5 +1,5 @@
 """Stage functions and the runner that wires them (study definitions live in pipelines/)."""
 
-from hmid.pipeline.runner import Runner, Stage, code_fingerprint
+from hmid.pipeline.runner import Pending, Runner, Stage, code_fingerprint
 
-__all__ = ["Runner", "Stage", "code_fingerprint"]
+__all__ = ["Pending", "Runner", "Stage", "code_fingerprint"]

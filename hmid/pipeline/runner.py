@@ -44,9 +44,10 @@ class Stage:
     are cheap to redo and a cache of them would copy every log several times over.
 
     ``started=True`` for a stage whose work goes on beside the stages after it (handed to a
-    worker, :mod:`hmid.workers`): ``fn`` then returns a callable that gives the artifact, and
-    the runner calls it when a later stage reads the artifact, or once the last stage is done.
-    Its time is what the run spent in the two calls (the worker's is not the run's to wait for).
+    worker, :mod:`hmid.workers`): ``fn`` then returns a :class:`Pending`, whose ``result`` the
+    runner calls when a later stage reads the artifact, or once the last stage is done, and
+    whose ``cancel`` it calls where a stage in between fails. Its time is what the run spent in
+    the two calls (the worker's is not the run's to wait for).
     """
 
     name: str
@@ -86,12 +87,21 @@ class StageRecord:
     wall_s: float
 
 
+@dataclass(frozen=True)
+class Pending:
+    """What a started stage (``Stage.started``) returns: ``result()`` waits for its work and
+    gives the artifact; ``cancel()`` drops the work where the run fails before it is read."""
+
+    result: Callable[[], Any]
+    cancel: Callable[[], None] = lambda: None
+
+
 @dataclass
 class _Started:
     """A stage begun whose artifact is still to come (``Stage.started``)."""
 
     stage: Stage
-    finish: Callable[[], Any]
+    pending: Pending
     key: str
     path: Path | None  # its cache entry (None: not stored)
     lock: ExitStack  # the entry's lock, held until the artifact is written
@@ -162,7 +172,8 @@ class Runner:
                 if keep is None or name in keep:
                     artifacts[name] = found
         finally:
-            for begun in started.values():  # a later stage failed: its locks are let go
+            for begun in started.values():  # a later stage failed: its work and locks go
+                begun.pending.cancel()
                 begun.lock.close()
         return artifacts
 
@@ -202,7 +213,7 @@ class Runner:
         cache; its lock let go."""
         start = time.perf_counter()
         with begun.lock:
-            found = begun.finish()
+            found = begun.pending.result()
             if begun.path is not None:
                 write_entry(begun.path, (begun.stage.name, found))
         seconds = begun.seconds + time.perf_counter() - start

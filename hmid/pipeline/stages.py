@@ -27,6 +27,7 @@ from hmid.io import plausibility as p
 from hmid.io.plausibility import no_rows, outliers
 from hmid.metrics import score
 from hmid.pipeline.fits import FIT_ERRORS, Fits, fit_or_fail
+from hmid.pipeline.runner import Pending
 from hmid.split import validation_masks
 from hmid.summary import LogSummary, summarize
 from hmid.workers import Tasks, beside
@@ -466,18 +467,19 @@ def freerun_blocks(config: ExperimentConfig, split: Split, export: dict) -> Free
 
 def freerun(
     config: ExperimentConfig, freerun_blocks: FreeRunBlocks, fit: list[Fitted], export: dict
-) -> Callable[[], dict]:
+) -> Pending:
     """Every exported model run free over the held-out blocks (:mod:`hmid.portable.freerun`),
     by name; a model that cannot run free says why in one line. A stage begun
     (:attr:`Stage.started <hmid.pipeline.runner.Stage.started>`): the models are handed to the
-    run's worker now and run there while the run compares the models and runs the loop; what
-    the callable returned gives is every model's run, those no worker has begun run here. With
-    no worker, every model runs when the callable is called (after the stages that hold the
-    signals: a long log's are let go before the free runs import JAX)."""
+    run's worker now and run there while the run compares the models and runs the loop; the
+    :class:`~hmid.pipeline.runner.Pending` returned gives every model's run, those no worker has
+    begun run here, or cancels them where a later stage fails. With no worker, every model runs
+    when its result is asked for (after the stages that hold the signals: a long log's are let
+    go before the free runs import JAX)."""
     tasks = Tasks(ahead=None)  # every model at once: the worker goes on while the run does
     if not tasks.workers:
-        return lambda: _free_runs(config, freerun_blocks, fit, export, tasks)()
-    return _free_runs(config, freerun_blocks, fit, export, tasks)
+        return Pending(lambda: _free_runs(config, freerun_blocks, fit, export, tasks)())
+    return Pending(_free_runs(config, freerun_blocks, fit, export, tasks), tasks.cancel)
 
 
 def _free_runs(config: ExperimentConfig, freerun_blocks: FreeRunBlocks, fit: list[Fitted],

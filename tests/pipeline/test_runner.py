@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import pytest
 
 from hmid.errors import HmidWarning
-from hmid.pipeline import Runner, Stage
+from hmid.pipeline import Pending, Runner, Stage
 from hmid.pipeline.cache import read_entry
 
 
@@ -185,7 +185,8 @@ def _started_stages(calls):
 
     def begun(config):
         calls.append("begun")
-        return lambda: calls.append("finished") or config.a * 10
+        return Pending(lambda: calls.append("finished") or config.a * 10,
+                       lambda: calls.append("cancelled"))  # fmt: skip
 
     def between(config):
         calls.append("between")
@@ -223,13 +224,15 @@ def test_a_started_stage_no_stage_reads_is_finished_at_the_end(tmp_path):
     assert calls == ["begun", "between", "finished"]
 
 
-def test_a_failure_after_a_started_stage_lets_its_lock_go(tmp_path):
+def test_a_failure_after_a_started_stage_cancels_its_work_and_lets_its_lock_go(tmp_path):
     def fails(config):
         raise RuntimeError("later stage")
 
-    stages = (*_started_stages([])[:1], Stage("fails", fails))
+    calls = []
+    stages = (*_started_stages(calls)[:1], Stage("fails", fails))
     with pytest.raises(RuntimeError, match="later stage"):
         Runner(tmp_path).run(stages, Cfg(1, 2))
+    assert calls == ["begun", "cancelled"]
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a held lock would warn that another run computes it
         assert Runner(tmp_path).run(stages[:1], Cfg(1, 2)) == {"begun": 10}
