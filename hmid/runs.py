@@ -85,6 +85,7 @@ class Manifest:
     seed: int
     inputs: dict[str, str] = field(default_factory=dict)
     stages: dict[str, float] = field(default_factory=dict)
+    work: dict[str, float] = field(default_factory=dict)  # started stages: their work's time
     cache: dict[str, bool | None] = field(default_factory=dict)  # stage -> read from the cache
     reused: dict[str, str] = field(default_factory=dict)  # model -> stored work it read back
     started: str = field(default_factory=_now)
@@ -117,6 +118,7 @@ class Manifest:
                 "process": {"host": socket.gethostname(), "pid": os.getpid()},
                 "finished": None if self.status == "running" else _now(),
                 "stage_wall_s": {k: round(v, 4) for k, v in self.stages.items()},
+                "stage_work_s": {k: round(v, 4) for k, v in self.work.items()},
                 "stage_cached": self.cache,
                 "reused": self.reused,
             },

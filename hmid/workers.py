@@ -16,6 +16,7 @@ import multiprocessing
 import os
 import signal
 import threading
+import time
 import warnings
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
@@ -89,6 +90,7 @@ class _Pool:
             workers, mp_context=get_context("spawn"), initializer=_worker_start
         )
         self.processes: set = set()
+        self.outstanding: set[Future] = set()  # handed out by any Tasks, not yet done
 
     def submit(self, fn: Callable[..., Any], /, *args: Any) -> Future:
 
@@ -97,6 +99,18 @@ class _Pool:
             future = self.executor.submit(fn, *args)
         self.processes.update(set(active_children()) - before)
         return future
+
+    def hand(self, fn: Callable[..., Any], /, *args: Any) -> Future:
+        """A task submitted for a :class:`Tasks` (a warm-up's imports are not one)."""
+        future = self.submit(fn, *args)
+        self.outstanding.add(future)
+        future.add_done_callback(self.outstanding.discard)
+        return future
+
+    def busy(self) -> int:
+        """Tasks handed to the workers and not yet done, whichever :class:`Tasks` handed
+        them out."""
+        return sum(1 for future in list(self.outstanding) if not future.done())
 
     def stop(self) -> None:
         """Kill the workers and reap them, then wait for the pool's own thread: it sees them
@@ -168,6 +182,14 @@ class _Task:
     here: Callable[[], Any]  # what the caller runs if it takes the task itself
     future: Future | None = None  # None while held back from the workers
     there: bool = False  # its future is a worker's (a _Done)
+    seconds: float = 0.0  # how long it ran, wherever it ran (known once it is done)
+
+    def run_here(self) -> Future:
+        """Run the task in the caller, now."""
+        start = time.perf_counter()
+        future = _finished(self.here())
+        self.seconds, self.there = time.perf_counter() - start, False
+        return future
 
 
 @dataclass(frozen=True)
@@ -182,15 +204,17 @@ class _Warning:
 class _Done:
     value: Any
     warnings: tuple[_Warning, ...]
+    seconds: float
 
 
 def _call(fn: Callable[..., Any], args: tuple) -> _Done:
     """In a worker: ``fn(*args)`` and the warnings it gave, which the caller says."""
+    start = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("default")
         value = fn(*args)
     said = (_Warning(str(w.message), w.category, w.filename, w.lineno) for w in caught)
-    return _Done(value, tuple(said))
+    return _Done(value, tuple(said), time.perf_counter() - start)
 
 
 def _value(task: _Task) -> Any:
@@ -200,6 +224,7 @@ def _value(task: _Task) -> Any:
         return found
     for w in found.warnings:
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    task.seconds = found.seconds
     return found.value
 
 
@@ -219,6 +244,9 @@ class Tasks:
         self.workers = default_workers() if workers is None else workers
         self.ahead = ahead
         self._tasks: list[_Task] = []
+        #: the seconds the tasks collected so far ran, in a worker or here: work done beside a
+        #: caller that waited for none of it still took its time
+        self.seconds = 0.0
 
     def start(self, modules: tuple[str, ...] = ()) -> Tasks:
         """Start the workers now, importing ``modules``, while the caller works."""
@@ -240,7 +268,7 @@ class Tasks:
         if self.workers:
             self._hand_out(self._tasks)
         else:
-            task.future = _finished(task.here())
+            task.future = task.run_here()
 
     def cancel(self) -> None:
         """Drop every task not collected: those no worker has begun are cancelled, those
@@ -267,24 +295,29 @@ class Tasks:
             held = next((task for task in tasks if task.future is None), None)
             if held is None:
                 break
-            held.future = _finished(held.here())
+            held.future = held.run_here()
         for task in reversed(tasks):
             assert task.future is not None  # the loop above ran every task held back
             if task.future.cancel():
-                task.future, task.there = _finished(task.here()), False
+                task.future = task.run_here()
         out = []
         for task in tasks:
             try:
                 out.append(_value(task))
             except BrokenProcessPool:
                 self._broken()
-                out.append(task.here())
+                task.future = task.run_here()
+                out.append(task.future.result())
+            self.seconds += task.seconds
             if step is not None:
                 step()
         return out
 
     def _hand_out(self, tasks: list[_Task]) -> None:
-        """Submit held-back tasks while the workers have room for them."""
+        """Submit held-back tasks while the workers have room for them. With a limit, there
+        is none while work another caller handed out is not done (a run's free runs, handed
+        out all at once): a task put behind it could neither be taken back nor begun, and
+        would keep this caller waiting where it could have run the task itself."""
         limit = None if self.ahead is None else self.workers * (1 + self.ahead)
         for task in tasks:
             if not self.workers:
@@ -292,10 +325,10 @@ class Tasks:
             if task.future is not None:
                 continue
             busy = sum(1 for t in tasks if t.future is not None and not t.future.done())
-            if limit is not None and busy >= limit:
+            if limit is not None and (busy >= limit or _pool(self.workers).busy() > busy):
                 return
             try:
-                task.future = _pool(self.workers).submit(_call, task.fn, task.args)
+                task.future = _pool(self.workers).hand(_call, task.fn, task.args)
             except BrokenProcessPool:
                 self._broken()
             else:

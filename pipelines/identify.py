@@ -168,6 +168,8 @@ def run(
             progress=progress,
         )
         folder.manifest.stages = {name: r.wall_s for name, r in runner.records.items()}
+        folder.manifest.work = {name: r.work_s for name, r in runner.records.items()
+                                if r.work_s is not None}  # fmt: skip
         folder.manifest.cache = {name: r.cached for name, r in runner.records.items()}
         folder.manifest.reused = {f.name: f.reused for f in artifacts["fit"] if f.reused}
         said = findings(artifacts)
@@ -198,8 +200,10 @@ def timings(runner: Runner, artifacts: dict) -> dict:
         for model in artifacts["fit"]
         if hasattr(getattr(model.model, "result", None), "wall_s")
     }
+    work = {name: r.work_s for name, r in runner.records.items() if r.work_s is not None}
     return {
         "stages_s": {name: r.wall_s for name, r in runner.records.items()},
+        "stages_work_s": work,
         "loop_s": [
             {"part": part, "seconds": seconds, "candidates": n} for part, seconds, n in loop.costs
         ]

@@ -8,7 +8,7 @@ import time
 import _worker_tasks
 import pandas as pd
 import pytest
-from _worker_tasks import pid_after, square, warn, write_pid
+from _worker_tasks import pid_after, square, warn, write_pid, write_pid_then_sleep
 
 from hmid import workers as workers_module
 from hmid.plots import plot_scores
@@ -177,3 +177,24 @@ def test_cancel_drops_what_no_worker_has_begun(tmp_path):
     after.submit(square, 3)
     assert after.results() == [9]
     assert sum(path.exists() for path in paths) <= 1  # at most the one already passed on
+
+
+def test_a_full_pool_is_not_handed_more_by_a_caller_with_a_limit(tmp_path):
+    """Work handed out all at once by one caller (a run's free runs) fills the worker's queue;
+    a caller with a limit (the loop's screens) then runs its tasks itself rather than put them
+    behind that work and wait for them. The seconds each task ran are summed wherever."""
+    tasks = Tasks(workers=1).start()
+    tasks.submit(square, 2)
+    tasks.results()  # the worker is up
+    busy = Tasks(workers=1)
+    busy.submit(time.sleep, 1.5)
+    screens = Tasks(workers=1, ahead=1)
+    paths = [tmp_path / f"{k}.pid" for k in range(4)]
+    start = time.perf_counter()
+    for path in paths:  # the caller's own share takes a while: time for the pool to pass on
+        screens.submit(write_pid_then_sleep, path, 0.1)  # what it was handed
+    screens.results()
+    assert time.perf_counter() - start < 1.0  # none waited behind the sleep
+    assert [int(p.read_text()) for p in paths] == [os.getpid()] * 4
+    busy.results()
+    assert 1.4 < busy.seconds < 3.0 and 0.4 <= screens.seconds < 1.0

@@ -84,16 +84,20 @@ def code_fingerprint() -> str:
 class StageRecord:
     key: str
     cached: bool | None  # None: a stage that is never stored (the data stages)
-    wall_s: float
+    wall_s: float  # the run's own time in the stage
+    work_s: float | None = None  # a started stage's: how long its work ran, wherever it ran
 
 
 @dataclass(frozen=True)
 class Pending:
     """What a started stage (``Stage.started``) returns: ``result()`` waits for its work and
-    gives the artifact; ``cancel()`` drops the work where the run fails before it is read."""
+    gives the artifact; ``cancel()`` drops the work where the run fails before it is read;
+    ``work_s()``, once the result is in, how long the work ran (in a worker, mostly while the
+    run did other things: the stage's wall time alone would say it cost nothing)."""
 
     result: Callable[[], Any]
     cancel: Callable[[], None] = lambda: None
+    work_s: Callable[[], float | None] = lambda: None
 
 
 @dataclass
@@ -218,7 +222,8 @@ class Runner:
                 write_entry(begun.path, (begun.stage.name, found))
         seconds = begun.seconds + time.perf_counter() - start
         cached = False if begun.path is not None else None
-        self._record(begun.stage.name, StageRecord(begun.key, cached, seconds), progress)
+        record = StageRecord(begun.key, cached, seconds, begun.pending.work_s())
+        self._record(begun.stage.name, record, progress)
         return found
 
     def _record(self, name: str, record: StageRecord, progress: Any) -> None:

@@ -478,8 +478,10 @@ def freerun(
     go before the free runs import JAX)."""
     tasks = Tasks(ahead=None)  # every model at once: the worker goes on while the run does
     if not tasks.workers:
-        return Pending(lambda: _free_runs(config, freerun_blocks, fit, export, tasks)())
-    return Pending(_free_runs(config, freerun_blocks, fit, export, tasks), tasks.cancel)
+        return Pending(lambda: _free_runs(config, freerun_blocks, fit, export, tasks)(),
+                       work_s=lambda: tasks.seconds)  # fmt: skip
+    return Pending(_free_runs(config, freerun_blocks, fit, export, tasks), tasks.cancel,
+                   lambda: tasks.seconds)  # fmt: skip
 
 
 def _free_runs(config: ExperimentConfig, freerun_blocks: FreeRunBlocks, fit: list[Fitted],

@@ -73,6 +73,8 @@ def test_run_writes_a_complete_folder(first_run):
     assert {m["model"] for m in metrics["held_out"]} == {"poly:quadratic_xv", "poly:cubic_xvP"}
     manifest = json.loads((run_dir / "manifest.json").read_text())
     assert set(manifest["stage_wall_s"]) >= {"load", "friction", "fit", "compare", "report"}
+    # the free runs' own time, wherever they ran (their stage's wall time is the run's wait)
+    assert set(manifest["stage_work_s"]) == {"freerun"} and manifest["stage_work_s"]["freerun"] > 0
     assert len(manifest["inputs_sha256"]) == 7  # config + 4 logs + 2 column maps
     assert manifest["status"] == "complete" and manifest["error"] is None
 
