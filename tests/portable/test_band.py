@@ -55,6 +55,18 @@ def test_a_disturbance_that_moves_nothing_cannot_reach_the_level_and_says_so():
     assert not found.reachable and found.coverage < 0.1
 
 
+def test_a_nominal_run_that_diverged_is_read_without_a_warning():
+    """A training piece whose nominal run diverged (inf; the draws' deviations from it -inf):
+    its samples count as not covered, and nothing reaches the user's console as a warning."""
+    rng = np.random.default_rng(5)
+    measured, nominal, c, d = _chunk(rng, 1000, 50, 1.0)
+    nominal[600:], c[:, 600:] = np.inf, -np.inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        found = calibrate([(measured, nominal, c, d)], 0.9)
+    assert not found.reachable and found.coverage <= 0.6
+
+
 def test_training_blocks_are_cut_to_the_held_out_length():
     pieces = chunks([np.arange(100), np.arange(200, 225), np.arange(300, 305)], 40)
     assert [len(p) for p in pieces] == [40, 40, 20, 25]  # the 5-row block: too short

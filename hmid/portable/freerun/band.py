@@ -269,7 +269,8 @@ class _Pool:
         spans = [np.minimum(np.arange(len(x)) * HORIZONS // len(x), HORIZONS - 1)
                  for x, *_ in chunks]  # fmt: skip
         x, nominal, c, d = (np.concatenate(part, axis=-1) for part in zip(*chunks, strict=True))
-        return cls(x, nominal + c, d, np.concatenate(spans))
+        with np.errstate(invalid="ignore"):  # a diverged nominal run: inf less inf, read as NaN
+            return cls(x, nominal + c, d, np.concatenate(spans))
 
     def coverage(self, level: float, scale: float) -> float:
         return int(np.sum(self.inside(level, scale))) / len(self.x)
