@@ -51,11 +51,10 @@ def main(argv: list[str] | None = None) -> int:
             values = [v for v in values if math.isfinite(v)]
             if len(values) < 2:
                 continue
-            mean, sd = statistics.fmean(values), statistics.stdev(values)
+            n, mean, sd = len(values), statistics.fmean(values), statistics.stdev(values)
             inside = sum(85.0 <= v <= 95.0 for v in values)
-            print(f"| {name} | {model} | {len(values)} | {mean:.1f} ± {sd / math.sqrt(len(values)):.1f}"
-                  f" | {sd:.1f} | {min(values):.1f} | {max(values):.1f} | {inside} of {len(values)} |",
-                  flush=True)  # fmt: skip
+            print(f"| {name} | {model} | {n} | {mean:.1f} ± {sd / math.sqrt(n):.1f} | {sd:.1f} | "
+                  f"{min(values):.1f} | {max(values):.1f} | {inside} of {n} |", flush=True)
     return 0
 
 

@@ -58,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
             posterior = getattr(fitted.model, "posterior_draws", None)
             model = Model(document, draws=posterior() if posterior else None)
 
-            def coverage(seed: int, model=model) -> float:
+            def coverage(seed: int, model=model, held=held) -> float:
                 run = stages.free_run_or_why(model, held.signals, held.spans, draws=draws,
                                              level=stages.FREE_RUN_LEVEL, seed=seed, held=held)
                 return 100 * run.scores().get("band coverage", float("nan"))
