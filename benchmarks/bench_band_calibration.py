@@ -53,8 +53,11 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             n, mean, sd = len(values), statistics.fmean(values), statistics.stdev(values)
             inside = sum(85.0 <= v <= 95.0 for v in values)
-            print(f"| {name} | {model} | {n} | {mean:.1f} ± {sd / math.sqrt(n):.1f} | {sd:.1f} | "
-                  f"{min(values):.1f} | {max(values):.1f} | {inside} of {n} |", flush=True)
+            print(
+                f"| {name} | {model} | {n} | {mean:.1f} ± {sd / math.sqrt(n):.1f} | {sd:.1f} | "
+                f"{min(values):.1f} | {max(values):.1f} | {inside} of {n} |",
+                flush=True,
+            )
     return 0
 
 
@@ -91,11 +94,21 @@ def _replication(name: str, r: int) -> dict[str, float]:
             continue
         posterior = getattr(fitted.model, "posterior_draws", None)
         model = Model(document, draws=posterior() if posterior else None)
-        run = stages.free_run_or_why(model, held.signals, held.spans, draws=stages.FREE_RUN_DRAWS,
-                                     level=stages.FREE_RUN_LEVEL, seed=config.seed, held=held)
+        run = stages.free_run_or_why(
+            model,
+            held.signals,
+            held.spans,
+            draws=stages.FREE_RUN_DRAWS,
+            level=stages.FREE_RUN_LEVEL,
+            seed=config.seed,
+            held=held,
+        )
         out[fitted.name] = 100 * run.scores().get("band coverage", float("nan"))
-    print(f"{name} data set {r}: " + ", ".join(f"{k} {v:.1f}" for k, v in out.items()),
-          file=sys.stderr, flush=True)
+    print(
+        f"{name} data set {r}: " + ", ".join(f"{k} {v:.1f}" for k, v in out.items()),
+        file=sys.stderr,
+        flush=True,
+    )
     return out
 
 

@@ -59,15 +59,25 @@ def main(argv: list[str] | None = None) -> int:
             model = Model(document, draws=posterior() if posterior else None)
 
             def coverage(seed: int, model=model, held=held) -> float:
-                run = stages.free_run_or_why(model, held.signals, held.spans, draws=draws,
-                                             level=stages.FREE_RUN_LEVEL, seed=seed, held=held)
+                run = stages.free_run_or_why(
+                    model,
+                    held.signals,
+                    held.spans,
+                    draws=draws,
+                    level=stages.FREE_RUN_LEVEL,
+                    seed=seed,
+                    held=held,
+                )
                 return 100 * run.scores().get("band coverage", float("nan"))
 
             own = coverage(config.seed)
             found_by_seed = [coverage(seed) for seed in range(args.seeds)]
-            print(f"| {name} | {fitted.name} | {own:.1f} | "
-                  f"{statistics.fmean(found_by_seed):.1f} | {statistics.stdev(found_by_seed):.1f}"
-                  f" | {min(found_by_seed):.1f} | {max(found_by_seed):.1f} |", flush=True)
+            print(
+                f"| {name} | {fitted.name} | {own:.1f} | "
+                f"{statistics.fmean(found_by_seed):.1f} | {statistics.stdev(found_by_seed):.1f}"
+                f" | {min(found_by_seed):.1f} | {max(found_by_seed):.1f} |",
+                flush=True,
+            )
     print(f"\n{draws} draws, level {100 * stages.FREE_RUN_LEVEL:.0f} %", file=sys.stderr)
     return 0
 
