@@ -25,6 +25,7 @@ import tempfile
 from pathlib import Path
 
 import yaml
+from _band import band_coverage, exported
 
 ROOT = Path(__file__).resolve().parents[1]
 #: config -> its data set's simulation config (the shipped logs are that config's seed)
@@ -64,11 +65,8 @@ def main(argv: list[str] | None = None) -> int:
 def _replication(name: str, r: int) -> dict[str, float]:
     """Every exported model's held-out band coverage (%) on the data set of seed + ``r``."""
     from hmid.experiment import load_experiment
-    from hmid.pipeline import stages
-    from hmid.portable import Model
     from hmid.simulate.datasets import load_dataset_config
     from hmid.simulate.write import write_dataset
-    from pipelines.identify import analyse
 
     simulation = load_dataset_config(ROOT / "configs" / "simulate" / f"{CONFIGS[name]}.yaml")
     with tempfile.TemporaryDirectory(prefix="hmid-band-calibration-") as tmp:
@@ -86,24 +84,8 @@ def _replication(name: str, r: int) -> dict[str, float]:
         path = Path(tmp) / f"{name}.yaml"
         path.write_text(yaml.safe_dump(raw))
         config = load_experiment(path)
-        found = analyse(config, ("freerun_blocks", "fit", "export"), Path(tmp) / "cache")
-    held, out = found["freerun_blocks"].rows, {}
-    for fitted in found["fit"]:
-        document = found["export"].get(fitted.name)
-        if document is None or isinstance(document, str):
-            continue
-        posterior = getattr(fitted.model, "posterior_draws", None)
-        model = Model(document, draws=posterior() if posterior else None)
-        run = stages.free_run_or_why(
-            model,
-            held.signals,
-            held.spans,
-            draws=stages.FREE_RUN_DRAWS,
-            level=stages.FREE_RUN_LEVEL,
-            seed=config.seed,
-            held=held,
-        )
-        out[fitted.name] = 100 * run.scores().get("band coverage", float("nan"))
+        held, models = exported(config, Path(tmp) / "cache")
+    out = {name: band_coverage(model, held, config.seed) for name, model in models}
     print(
         f"{name} data set {r}: " + ", ".join(f"{k} {v:.1f}" for k, v in out.items()),
         file=sys.stderr,

@@ -24,6 +24,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from _band import band_coverage, exported
+
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ("demo", "knee", "linear-motor")
 
@@ -40,8 +42,6 @@ def main(argv: list[str] | None = None) -> int:
 
     from hmid.experiment import load_experiment
     from hmid.pipeline import stages
-    from hmid.portable import Model
-    from pipelines.identify import analyse
 
     draws = args.draws or stages.FREE_RUN_DRAWS
     print(f"| config | model | seed {{config}} | mean over {args.seeds} seeds | sd | min | max |")
@@ -49,31 +49,12 @@ def main(argv: list[str] | None = None) -> int:
     for name in args.config or CONFIGS:
         config = load_experiment(ROOT / "configs" / f"{name}.yaml")
         with tempfile.TemporaryDirectory(prefix="hmid-band-seeds-") as tmp:
-            found = analyse(config, ("freerun_blocks", "fit", "export"), Path(tmp))
-        held = found["freerun_blocks"].rows
-        for fitted in found["fit"]:
-            document = found["export"].get(fitted.name)
-            if document is None or isinstance(document, str):
-                continue
-            posterior = getattr(fitted.model, "posterior_draws", None)
-            model = Model(document, draws=posterior() if posterior else None)
-
-            def coverage(seed: int, model=model, held=held) -> float:
-                run = stages.free_run_or_why(
-                    model,
-                    held.signals,
-                    held.spans,
-                    draws=draws,
-                    level=stages.FREE_RUN_LEVEL,
-                    seed=seed,
-                    held=held,
-                )
-                return 100 * run.scores().get("band coverage", float("nan"))
-
-            own = coverage(config.seed)
-            found_by_seed = [coverage(seed) for seed in range(args.seeds)]
+            held, models = exported(config, Path(tmp))
+        for model_name, model in models:
+            own = band_coverage(model, held, config.seed, draws)
+            found_by_seed = [band_coverage(model, held, seed, draws) for seed in range(args.seeds)]
             print(
-                f"| {name} | {fitted.name} | {own:.1f} | "
+                f"| {name} | {model_name} | {own:.1f} | "
                 f"{statistics.fmean(found_by_seed):.1f} | {statistics.stdev(found_by_seed):.1f}"
                 f" | {min(found_by_seed):.1f} | {max(found_by_seed):.1f} |",
                 flush=True,
