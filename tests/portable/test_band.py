@@ -105,3 +105,40 @@ def test_the_training_blocks_choose_the_shape_of_their_own_error(shape):
     assert found.kind == (DRIFT if shape == "drift" else FORCE)
     assert found.reachable and found.coverage == pytest.approx(0.9, abs=0.01)
     assert found.miss < 0.1  # cross-calibrated, by horizon: within 10 points
+
+
+def _family(rng, count: int, spread: float, n: int = 400, draws: int = 40) -> list:
+    """``count`` training blocks whose error scales vary from block to block (log-normal with
+    ``spread``), as a rig's do from one excitation to the next."""
+    return [_chunk(rng, n, draws, float(np.exp(spread * rng.normal()))) for _ in range(count)]
+
+
+def test_the_target_is_raised_by_what_a_left_out_block_misses():
+    """Blocks alike: the leave-one-out loss is nil and the target is the level. Blocks whose
+    error scale varies: a scale calibrated on eight of them covers new blocks of the same kind
+    less than the level; calibrated to the raised target, nearer it (over 20 training sets)."""
+    from hmid.portable.freerun.band import coverage_of, held_out_target
+
+    rng = np.random.default_rng(6)
+    alike = _family(rng, 16, 0.0, n=2000, draws=100)
+    assert held_out_target(alike, 0.9, calibrate(alike, 0.9).scale) <= 0.905
+    at_level, raised, targets = [], [], []
+    new = _family(rng, 200, 0.7)
+    for _ in range(20):
+        training = _family(rng, 8, 0.7)
+        target = held_out_target(training, 0.9, calibrate(training, 0.9).scale)
+        targets.append(target)
+        at_level.append(coverage_of(new, 0.9, calibrate(training, 0.9).scale))
+        raised.append(coverage_of(new, 0.9, calibrate(training, 0.9, target=target).scale))
+    assert np.mean(targets) > 0.91
+    assert np.mean(at_level) < 0.89  # the level's own scale: too narrow away from its blocks
+    assert abs(np.mean(raised) - 0.9) < 0.5 * abs(np.mean(at_level) - 0.9)
+
+
+def test_too_few_blocks_keep_the_level():
+    from hmid.portable.freerun.band import choose
+
+    rng = np.random.default_rng(7)
+    pairs = [_shaped(rng, "force") for _ in range(2)]
+    found = choose([f for f, _ in pairs], [d for _, d in pairs], 0.9)
+    assert found.target == 0.9

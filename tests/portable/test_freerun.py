@@ -352,6 +352,32 @@ def test_a_perfect_models_band_is_centred_on_its_error_controlled_run():
     the measured position its own free run: the band lies on it (4 µm, the restarts' rounding,
     which a drift of 1e-6 m/√s takes up). Made of the fixed steps' runs themselves it lay 3 mm
     off, and a drift a thousand times larger was calibrated to cover that."""
+    model, signals = _perfect_stage()
+    spans, training = blocks(signals), blocks(signals, "train")
+    found = simulate_signals(model, signals, spans, calibration=training, draws=5, seed=1)
+    gap = max(np.max(np.abs(np.asarray(r.band) - r.x_measured)) for r in found.runs)
+    assert gap < 2e-5 and found.calibration is not None and found.calibration.scale < 1e-5
+
+
+def test_a_band_that_no_scale_calibrates_is_not_drawn(monkeypatch):
+    """Its coverage would check nothing: the runs have no band, the coverage is NaN, and the
+    band's description says why."""
+    from hmid.portable.freerun import Calibration
+    from hmid.portable.freerun import run as freerun_run
+
+    model, signals = _perfect_stage()
+    monkeypatch.setattr(freerun_run, "choose",
+                        lambda *_: Calibration(16384.0, 0.03, 100, reachable=False))  # fmt: skip
+    found = simulate_signals(model, signals, blocks(signals), draws=5, seed=1,
+                             calibration=blocks(signals, "train"))  # fmt: skip
+    assert found.runs and all(r.band is None for r in found.runs)
+    assert np.isnan(found.scores()["band coverage"]) and found.level == 0.9
+    assert "band not calibrated: no disturbance scale reaches the level" in found.band
+
+
+def _perfect_stage():
+    """A 95 kg stage with 20 N Coulomb friction at 1 kHz, two logs whose measured position is
+    the model's own free run (the last 2 s of 6 held out), and the model."""
     model = _model([MASS, DAMPER, COULOMB], [95.0, 200.0, 20.0])
     model.document["sample_rate_hz"] = 1000.0
     t = np.arange(6000) / 1000.0
@@ -366,8 +392,4 @@ def test_a_perfect_models_band_is_centred_on_its_error_controlled_run():
             "train": ~held_out, "validation": held_out,
         }))  # fmt: skip
     units = {"x": "m", "u": "N", "v": "m/s", "explained": "N", "target": "N"}
-    signals = Signals.from_frame(pd.concat(frames), units, position="x")
-    spans, training = blocks(signals), blocks(signals, "train")
-    found = simulate_signals(model, signals, spans, calibration=training, draws=5, seed=1)
-    gap = max(np.max(np.abs(np.asarray(r.band) - r.x_measured)) for r in found.runs)
-    assert gap < 2e-5 and found.calibration is not None and found.calibration.scale < 1e-5
+    return model, Signals.from_frame(pd.concat(frames), units, position="x")

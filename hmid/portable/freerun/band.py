@@ -26,6 +26,11 @@ two by two-fold cross-calibration (:func:`cross_miss`): the scale is calibrated 
 them and the coverage checked on the other half, early and late in the blocks, and the shape
 whose coverage there misses the level least is kept (the force on a tie: it is the physical
 one).
+
+A scale calibrated to the level on a few training blocks covers blocks it was not calibrated on
+less than the level: one block more or less moves it, and a band too narrow loses more
+coverage than one as much too wide gains. So the level the training blocks are calibrated to
+is raised by that loss, measured on them by leaving each out in turn (:func:`held_out_target`).
 """
 
 from __future__ import annotations
@@ -125,6 +130,7 @@ class Calibration:
     kind: str = FORCE
     miss: float = np.nan
     diverging: float = 0.0  # the share of coefficient draws that diverge on the training blocks
+    target: float = np.nan  # the training coverage calibrated to (:func:`held_out_target`)
 
     def why_not(self) -> str:
         """Why the band is not calibrated, in words ("" where it is)."""
@@ -161,19 +167,19 @@ def quantile_band(runs: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarra
 
 
 def calibrate(chunks: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]], level: float,
-              reach: float = 1e4) -> Calibration:  # fmt: skip
-    """The scale s of the disturbance at which the band covers ``level`` of the measured
-    position over ``chunks``, each (measured, nominal, coefficient deviations, disturbance
-    deviations): the runs of the coefficient draws without disturbance, less the nominal run,
-    and of the nominal coefficients under a disturbance of scale 1, less the nominal run. Their
-    sum, nominal + C + s D, stands for a draw of both (to first order: a free run responds to a
-    small force linearly), so s is found without a run per trial scale.
+              reach: float = 1e4, target: float | None = None) -> Calibration:  # fmt: skip
+    """The scale s of the disturbance at which the ``level`` band covers ``target`` (default:
+    ``level``) of the measured position over ``chunks``, each (measured, nominal, coefficient
+    deviations, disturbance deviations): the runs of the coefficient draws without disturbance,
+    less the nominal run, and of the nominal coefficients under a disturbance of scale 1, less
+    the nominal run. Their sum, nominal + C + s D, stands for a draw of both (to first order: a
+    free run responds to a small force linearly), so s is found without a run per trial scale.
 
     The search starts where the disturbance's spread matches the nominal run's error, brackets
     s by factors of 4 up to ``reach`` times that, then halves the bracket's logarithm seven
     times (s to about 1 %)."""
     samples = sum(len(x) for x, *_ in chunks)
-    pool, found = _Pool.of(chunks), {}
+    pool, found, goal = _Pool.of(chunks), {}, level if target is None else target
 
     def coverage(s: float) -> float:  # the search asks some scales twice
         if s not in found:
@@ -181,22 +187,22 @@ def calibrate(chunks: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
         return found[s]
 
     covered = coverage(0.0)
-    if covered >= level:
+    if covered >= goal:
         return Calibration(0.0, covered, samples)
     start = _matched_scale(chunks)
     low, high = start, start
-    if (covered := coverage(start)) < level:
-        while covered < level:
+    if (covered := coverage(start)) < goal:
+        while covered < goal:
             if high >= reach * start:
                 return Calibration(high, covered, samples, reachable=False)
             low, high = high, high * 4
             covered = coverage(high)
     else:
-        while coverage(low) >= level and low > start / reach:
+        while coverage(low) >= goal and low > start / reach:
             high, low = low, low / 4
     for _ in range(7):
         middle = np.sqrt(low * high)
-        if coverage(middle) >= level:
+        if coverage(middle) >= goal:
             high = middle
         else:
             low = middle
@@ -257,20 +263,22 @@ class _Pool:
     """Chunks side by side (their samples concatenated): a band is a quantile of each sample's
     draws alone, so one pass over the pool is the passes over its chunks, without a call and a
     sort per chunk at every scale the search tries. ``span``: each sample's :data:`HORIZONS`
-    span of its own chunk."""
+    span of its own chunk; ``chunk``: the chunk's number."""
 
     x: np.ndarray
     base: np.ndarray  # the nominal run plus each coefficient draw's deviation
     d: np.ndarray
     span: np.ndarray
+    chunk: np.ndarray
 
     @classmethod
     def of(cls, chunks: list) -> _Pool:
         spans = [np.minimum(np.arange(len(x)) * HORIZONS // len(x), HORIZONS - 1)
                  for x, *_ in chunks]  # fmt: skip
         x, nominal, c, d = (np.concatenate(part, axis=-1) for part in zip(*chunks, strict=True))
+        number = np.repeat(np.arange(len(chunks)), [len(x) for x, *_ in chunks])
         with np.errstate(invalid="ignore"):  # a diverged nominal run: inf less inf, read as NaN
-            return cls(x, nominal + c, d, np.concatenate(spans))
+            return cls(x, nominal + c, d, np.concatenate(spans), number)
 
     def coverage(self, level: float, scale: float) -> float:
         return int(np.sum(self.inside(level, scale))) / len(self.x)
@@ -324,7 +332,60 @@ def choose(forced: list, drifted: list, level: float) -> Calibration:
     force = replace(calibrate(forced, level), miss=cross_miss(forced, level))
     drift = replace(calibrate(drifted, level), kind=DRIFT, miss=cross_miss(drifted, level))
     if not force.reachable:
-        return drift if drift.reachable else force
-    if np.isfinite(drift.miss) and drift.miss < force.miss:
-        return drift
-    return force
+        chosen, pieces = (drift, drifted) if drift.reachable else (force, forced)
+    elif np.isfinite(drift.miss) and drift.miss < force.miss:
+        chosen, pieces = drift, drifted
+    else:
+        chosen, pieces = force, forced
+    if not chosen.reachable or chosen.scale == 0 or len(pieces) < 3:
+        return replace(chosen, target=level)
+    target = held_out_target(pieces, level, chosen.scale)
+    raised = calibrate(pieces, level, target=target) if target > level else chosen
+    if not raised.reachable:  # the raised target is out of reach: the level's own scale
+        return replace(chosen, target=level)
+    return replace(chosen, scale=raised.scale, coverage=raised.coverage, target=target)
+
+
+#: The scales at which :func:`held_out_target` reads every chunk's coverage: factors of 2^(1/4)
+#: about the calibrated scale, up to 8 either way (and 0)
+GRID = np.concatenate([[0.0], 2.0 ** (np.arange(-12, 13) / 4)])
+
+
+def held_out_target(chunks: list, level: float, scale: float, highest: float = 0.99) -> float:
+    """The training coverage to calibrate the band to, so that it covers ``level`` of samples
+    it was not calibrated on: the least target (in steps of a quarter point, up to ``highest``)
+    at which a band calibrated on every chunk but one covers that one at ``level`` or more,
+    pooled over the chunks (leave one out). A scale fitted to few chunks misses the next one
+    more often than it over-covers it (coverage saturates at 100 %, and falls fast below the
+    level), so a band calibrated to the level on its own training blocks covers held-out ones
+    less: over 60 simulated data sets of the linear stage, 84 % for a nominal 90 %.
+
+    Every chunk's coverage is read once at each of :data:`GRID` times ``scale``, and each
+    leave-one-out calibration is the crossing of the others' coverage there (interpolated
+    between the two scales about it; the largest where none reaches): one pass over the
+    samples per scale, not a search per chunk and target."""
+    pool = _Pool.of(chunks)
+    n = len(chunks)
+    covered = np.stack([np.bincount(pool.chunk, pool.inside(level, scale * g), n) for g in GRID])
+    samples = np.bincount(pool.chunk, minlength=n).astype(float)
+    # (scales, chunks): the coverage of all the chunks but each
+    rest = (covered.sum(axis=1, keepdims=True) - covered) / np.maximum(samples.sum() - samples, 1)
+    for target in np.arange(level, highest + 1e-9, 0.0025):
+        if _left_out(covered, rest, target) >= level * samples.sum():
+            return round(float(target), 4)
+    return highest
+
+
+def _left_out(covered: np.ndarray, rest: np.ndarray, target: float) -> float:
+    """The samples each chunk has covered (``covered``: per scale and chunk) at the scale where
+    the other chunks' coverage (``rest``) first reaches ``target``, interpolated between the
+    two scales about that crossing (the largest where none reaches it), summed over chunks."""
+    chunk = np.arange(covered.shape[1])
+    reached = rest >= target
+    ever = reached.any(axis=0)
+    first = np.where(ever, reached.argmax(axis=0), len(rest) - 1)
+    below = np.maximum(first - 1, 0)
+    low, high = rest[below, chunk], rest[first, chunk]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = np.clip(np.where(ever & (high > low), (target - low) / (high - low), 1.0), 0, 1)
+    return float(np.sum(covered[below, chunk] * (1 - share) + covered[first, chunk] * share))
