@@ -11,8 +11,8 @@ fall within ± 5 points of the nominal; a band that no scale calibrates on the t
 is not drawn, and counted apart.
 
 Run: ``.venv/bin/python benchmarks/bench_band_calibration.py [--replications 20]
-[--config linear-motor --config demo]``. Prints one Markdown row per config and model. A
-linear-stage data set costs about 8 s, a demo one about 20 s, on one core.
+[--config linear-motor --config demo] [--scale 1 --scale 3]``. Prints one Markdown row per
+config and model. A linear-stage data set costs about 2 s, a demo one about 20 s, on one core.
 """
 
 from __future__ import annotations
@@ -24,9 +24,14 @@ import statistics
 import sys
 import tempfile
 from pathlib import Path
+from unittest import mock
 
 import yaml
 from _band import band_coverage, exported
+
+from hmid.portable.freerun import Calibration
+from hmid.portable.freerun import run as freerun_run
+from hmid.portable.freerun.band import FORCE
 
 ROOT = Path(__file__).resolve().parents[1]
 #: config -> its data set's simulation config (the shipped logs are that config's seed)
@@ -37,6 +42,13 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--replications", type=int, default=20)
     parser.add_argument("--config", action="append", choices=sorted(CONFIGS), default=None)
+    parser.add_argument(
+        "--scale",
+        action="append",
+        type=float,
+        default=[],
+        help="also the coverage with a disturbance force held at this scale",
+    )
     args = parser.parse_args(argv)
     if args.replications < 2:
         parser.error("--replications must be at least 2")
@@ -48,11 +60,13 @@ def main(argv: list[str] | None = None) -> int:
     for name in args.config or sorted(CONFIGS):
         found: dict[str, list[float]] = {}
         for r in range(1, args.replications + 1):
-            for model, coverage in _replication(name, r).items():
+            for model, coverage in _replication(name, r, args.scale).items():
                 found.setdefault(model, []).append(coverage)
         for model, every in found.items():
             values = [v for v in every if math.isfinite(v)]
             if len(values) < 2:
+                print(f"| {name} | {model} | {len(values)} | | | | | | "
+                      f"{len(every) - len(values)} of {len(every)} |")  # fmt: skip
                 continue
             n, mean, sd = len(values), statistics.fmean(values), statistics.stdev(values)
             inside = sum(85.0 <= v <= 95.0 for v in values)
@@ -65,8 +79,10 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def _replication(name: str, r: int) -> dict[str, float]:
-    """Every exported model's held-out band coverage (%) on the data set of seed + ``r``."""
+def _replication(name: str, r: int, scales: list[float]) -> dict[str, float]:
+    """Every exported model's held-out band coverage (%) on the data set of seed + ``r``, and
+    with a disturbance force held at each of ``scales`` (its calibration replaced: what a
+    scale known in advance gives, the spread that no calibration can remove)."""
     from hmid.experiment import load_experiment
     from hmid.simulate.datasets import load_dataset_config
     from hmid.simulate.write import write_dataset
@@ -89,6 +105,11 @@ def _replication(name: str, r: int) -> dict[str, float]:
         config = load_experiment(path)
         held, models = exported(config, Path(tmp) / "cache")
     out = {name: band_coverage(model, held, config.seed) for name, model in models}
+    for scale in scales:
+        fixed = Calibration(scale, float("nan"), 0, kind=FORCE)
+        with mock.patch.object(freerun_run, "choose", lambda *_, fixed=fixed: fixed):
+            out |= {f"{name} at force scale {scale:g}": band_coverage(model, held, config.seed)
+                    for name, model in models}  # fmt: skip
     print(
         f"{name} data set {r}: " + ", ".join(f"{k} {v:.1f}" for k, v in out.items()),
         file=sys.stderr,
