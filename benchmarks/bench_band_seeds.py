@@ -18,6 +18,7 @@ a third of a second per model and seed at 20 draws.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import statistics
 import sys
@@ -53,6 +54,10 @@ def main(argv: list[str] | None = None) -> int:
         for model_name, model in models:
             own = band_coverage(model, held, config.seed, draws)
             found_by_seed = [band_coverage(model, held, seed, draws) for seed in range(args.seeds)]
+            found_by_seed = [v for v in found_by_seed if math.isfinite(v)]
+            if len(found_by_seed) < 2:  # a band no scale calibrates is not drawn
+                print(f"| {name} | {model_name} | no band (not calibrated) | | | | |")
+                continue
             print(
                 f"| {name} | {model_name} | {own:.1f} | "
                 f"{statistics.fmean(found_by_seed):.1f} | {statistics.stdev(found_by_seed):.1f}"
