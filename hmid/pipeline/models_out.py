@@ -57,8 +57,9 @@ def free_run_section(config, free_runs: dict, units, out, drawing):
         "position. "
         + (f"Bands: {'; '.join(bands)}. The disturbance, a force on the balance or a drift of "
            "the position, is chosen and scaled on the training blocks (cut to the held-out "
-           "blocks' length); the band-coverage column is its coverage of the measured held-out "
-           "position, the check." if bands else "")
+           "blocks' length), to the level raised by what a band calibrated on the other blocks "
+           "misses on one left out (the training column); the band-coverage column is its "
+           "coverage of the measured held-out position, the check." if bands else "")
     )  # fmt: skip
     skipped = [f"{name}: {run.skipped}" for name, run in free_runs.items() if run.skipped]
     if skipped:
