@@ -328,7 +328,10 @@ def _extremes(runs: np.ndarray) -> tuple[np.ndarray, ...]:
 def choose(forced: list, drifted: list, level: float) -> Calibration:
     """The disturbance of the two shapes whose band, calibrated on half of the training
     chunks, covers the other half nearest the level (:func:`cross_miss`); the force on
-    a tie or where there are too few chunks to tell, unless no scale of it reaches the level."""
+    a tie or where there are too few chunks to tell, unless no scale of it reaches the level.
+    Its scale is then calibrated to the level raised by what a left-out chunk misses
+    (:func:`held_out_target`; the level itself with fewer than three chunks, or where the
+    coefficient draws alone cover it)."""
     force = replace(calibrate(forced, level), miss=cross_miss(forced, level))
     drift = replace(calibrate(drifted, level), kind=DRIFT, miss=cross_miss(drifted, level))
     if not force.reachable:
