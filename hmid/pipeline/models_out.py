@@ -55,11 +55,10 @@ def free_run_section(config, free_runs: dict, units, out, drawing):
         "uses the model (diffrax Tsit5, error-controlled; sign(v) regularised as tanh(v / v0), "
         "v0 as fine as one sample's step integrates stably). Fit % is MATLAB's NRMSE fit of the "
         "position. "
-        + (f"Bands: {'; '.join(bands)}. The disturbance, a force on the balance or a drift of "
-           "the position, is chosen and scaled on the training blocks (cut to the held-out "
-           "blocks' length), to the level raised by what a band calibrated on the other blocks "
-           "misses on one left out (the training column); the band-coverage column is its "
-           "coverage of the measured held-out position, the check." if bands else "")
+        + (f"Bands: {'; '.join(bands)}. The disturbance (a force or a drift) is chosen and "
+           "scaled on the training blocks, to the level raised by what a left-out block misses "
+           "(the training column); the band-coverage column, its coverage of the held-out "
+           "position, is the check." if bands else "")
     )  # fmt: skip
     skipped = [f"{name}: {run.skipped}" for name, run in free_runs.items() if run.skipped]
     if skipped:
