@@ -1,6 +1,6 @@
 """How much of a band's held-out coverage is its seed's: the free run's band over many seeds.
 
-A run reports one band per model, from one seed (the config's): 20 draws of the coefficients
+A run reports one band per model, from one seed (the config's): 14 draws of the coefficients
 and of the disturbance, calibrated on the training blocks, its coverage of the measured
 held-out position checked against the nominal 90 %. That coverage is one realisation of a
 Monte Carlo estimate. Here each shipped config is analysed up to its export once (the stage
@@ -10,7 +10,7 @@ the held-out coverage's mean and standard deviation over the seeds are printed b
 config seed's: the mean says whether the band is calibrated, the spread how far one seed's
 number may fall from it.
 
-Run: ``.venv/bin/python benchmarks/bench_band_seeds.py [--seeds 40] [--draws 20]
+Run: ``.venv/bin/python benchmarks/bench_band_seeds.py [--seeds 40] [--draws 14]
 [--config linear-motor ...]``. Prints one Markdown row per model. On one core it costs about
 a third of a second per model and seed at 20 draws.
 """

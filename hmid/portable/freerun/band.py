@@ -286,8 +286,8 @@ class _Pool:
     def inside(self, level: float, scale: float) -> np.ndarray:
         """Whether each measured sample lies inside the band at ``scale``: the bounds of
         :func:`quantile_band`, bit for bit, read from the two least and two greatest draws of
-        each sample whose draws are all finite (all a band of 20 draws at 90 % needs: a pass
-        over the draws rather than a sort of them)."""
+        each sample whose draws are all finite (all a band of 4 to 21 draws at 90 % needs: a
+        pass over the draws rather than a sort of them)."""
         # nominal + c + scale * d, as every band sums them; a diverged draw's inf times a scale
         # of 0 is NaN, which the band reads as not finite, as it reads the inf
         with np.errstate(invalid="ignore", over="ignore"):

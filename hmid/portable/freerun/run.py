@@ -285,33 +285,33 @@ def _start(sim: Simulator, signals, rows, memory_rows) -> Start:
 def _calibrate(model, sim, signals, spans, sampled, memory_rows, level, seed, stride,
                size) -> Calibration:  # fmt: skip
     """The disturbance's shape and scale from the training ``spans`` (:func:`~.band.choose`):
-    per span, the nominal coefficients with every coefficient draw without disturbance, then
-    with the nominal coefficients under every disturbance force of scale 1 (two vectorised
-    calls of the band's size), and as many drifts of the position (no run); and the share of
-    the coefficient draws that diverge there."""
+    per span, the nominal coefficients, every coefficient draw without disturbance, and the
+    nominal coefficients under every disturbance force of scale 1 (one vectorised call), and as
+    many drifts of the position (no run); and the share of the coefficient draws that diverge
+    there."""
     rng = np.random.default_rng([seed, 2])
     nominal = sim.coefficients()
     forced, drifted = [], []
     diverged = np.zeros(len(sampled), dtype=bool)
+    count = len(sampled)
     for rows in spans:
         start = _start(sim, signals, rows, memory_rows)
-        zeros = np.zeros((1 + len(sampled), len(rows)))
-        coefficients = sim.positions(*start, [nominal, *sampled], zeros, stride=stride, size=size)
-        noise = zeros.copy()
-        noise[1:] = disturbances(model, len(rows), len(sampled), rng)
-        disturbed = sim.positions(*start, [nominal] * (1 + len(sampled)), noise, stride=stride,
-                                  size=size)  # fmt: skip
+        # one call: the nominal run, each coefficient draw, the nominal under each disturbance
+        noise = np.zeros((1 + 2 * count, len(rows)))
+        noise[1 + count :] = disturbances(model, len(rows), count, rng)
+        runs = sim.positions(*start, [nominal, *sampled, *[nominal] * count], noise,
+                             stride=stride, size=size)  # fmt: skip
         # the band is centred on the error-controlled run, as the held-out blocks' (_about)
         x, x0 = signals[sim.position][rows], sim.integrate(*start, size=size).x
-        fixed = coefficients[0]
+        fixed = runs[0]
         with np.errstate(invalid="ignore"):
-            c, d = coefficients[1:] - fixed, disturbed[1:] - fixed
+            c, d = runs[1 : 1 + count] - fixed, runs[1 + count :] - fixed
         # judged at the band's own steps, between which its draws are linear: a stride's
         # samples tell no more of its coverage, and cost the scale's search as many passes
         step = slice(None, None, stride)
         forced.append((x[step], x0[step], c[:, step], d[:, step]))
         drifted.append((x[step], x0[step], c[:, step], drifts(start[0][step], len(sampled), rng)))
-        diverged |= ~np.all(np.isfinite(coefficients[1:]), axis=1)
+        diverged |= ~np.all(np.isfinite(runs[1 : 1 + count]), axis=1)
     return replace(choose(forced, drifted, level), diverging=float(np.mean(diverged)))
 
 
