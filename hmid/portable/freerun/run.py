@@ -292,8 +292,8 @@ def _calibrate(model, sim, signals, spans, sampled, memory_rows, level, seed, st
     rng = np.random.default_rng([seed, 2])
     nominal = sim.coefficients()
     forced, drifted = [], []
-    diverged = np.zeros(len(sampled), dtype=bool)
     count = len(sampled)
+    diverged = np.zeros(count, dtype=bool)
     for rows in spans:
         start = _start(sim, signals, rows, memory_rows)
         # one call: the nominal run, each coefficient draw, the nominal under each disturbance
@@ -310,7 +310,7 @@ def _calibrate(model, sim, signals, spans, sampled, memory_rows, level, seed, st
         # samples tell no more of its coverage, and cost the scale's search as many passes
         step = slice(None, None, stride)
         forced.append((x[step], x0[step], c[:, step], d[:, step]))
-        drifted.append((x[step], x0[step], c[:, step], drifts(start[0][step], len(sampled), rng)))
+        drifted.append((x[step], x0[step], c[:, step], drifts(start[0][step], count, rng)))
         diverged |= ~np.all(np.isfinite(runs[1 : 1 + count]), axis=1)
     return replace(choose(forced, drifted, level), diverging=float(np.mean(diverged)))
 
