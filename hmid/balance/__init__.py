@@ -7,7 +7,8 @@
   physical parameters;
 * :class:`Signals`: the rows they are evaluated on, smoothed alike on both sides;
 * :class:`Structure` and :func:`profile`: terms at hyperparameter values, fitted by least
-  squares with the hyperparameters profiled; :func:`parameters` with intervals;
+  squares with the hyperparameters profiled; :func:`parameters` with intervals (and
+  :func:`estimated`, with the coefficients' covariance);
 * :func:`sign_findings`: parameters that physics makes positive, fitted negative.
 """
 
@@ -22,6 +23,7 @@ from hmid.balance.structure import (
     Structure,
     StructureFit,
     descend,
+    estimated,
     fit_structure,
     parameters,
     profile,
@@ -50,6 +52,7 @@ __all__ = [
     "Term",
     "TermSpec",
     "descend",
+    "estimated",
     "fit_structure",
     "inference",
     "make_term",

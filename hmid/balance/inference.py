@@ -29,6 +29,14 @@ def inference(
     lag products taken within segments only, t intervals on n / (2 M + 1) degrees of freedom
     (as the polynomial family's default; calibrated by
     ``benchmarks/bench_calibration_balance.py``)."""
+    return sandwich(columns, y, rows, signals, confidence)[0]
+
+
+def sandwich(
+    columns: Columns, y: np.ndarray, rows: np.ndarray, signals: Signals, confidence: float
+) -> tuple[pd.DataFrame, np.ndarray]:
+    """:func:`inference`'s table and the coefficients' covariance it reads its standard errors
+    from (in the columns' units): what a model file carries for draws of the coefficients."""
     import statsmodels.api as sm
 
     X = columns.values[rows]
@@ -49,7 +57,7 @@ def inference(
     se = np.sqrt(np.maximum(np.diag(cov), 0.0)) / scale
     df = max(min(n - p, n / (2 * window + 1)), 1.0)
     half = stats.t.ppf(0.5 + confidence / 2, df) * se
-    return pd.DataFrame(
+    table = pd.DataFrame(
         {
             "parameter": columns.names,
             "value": value,
@@ -59,3 +67,4 @@ def inference(
             "unit": columns.units,
         }
     )
+    return table, cov / np.outer(scale, scale)

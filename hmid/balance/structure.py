@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from hmid.balance.columns import Columns, LeastSquares, Plan, plan
-from hmid.balance.inference import inference
+from hmid.balance.inference import sandwich
 from hmid.balance.signals import Signals
 from hmid.balance.terms import Hyper, Term
 from hmid.metrics import Scores, score
@@ -276,6 +276,15 @@ def parameters(fitted: StructureFit, signals: Signals, confidence: float) -> pd.
     included: their sensitivity columns enter the covariance (Gauss-Newton), so the linear
     parameters that trade off against them get honest intervals. Columns: parameter, value,
     std. error, lower, upper, unit, positive."""
+    return estimated(fitted, signals, confidence)[0]
+
+
+def estimated(
+    fitted: StructureFit, signals: Signals, confidence: float
+) -> tuple[pd.DataFrame, np.ndarray]:
+    """:func:`parameters`' table, and the covariance of the columns' coefficients (in column
+    order and units) from the same joint covariance: the profiled parameters' trade-off with
+    them included."""
     indices = fitted.structure.hypers
     found = {i: _sensitivity(fitted, i, signals) for i in indices}
     extras = {i: e for i, e in found.items() if e is not None}
@@ -285,7 +294,7 @@ def parameters(fitted: StructureFit, signals: Signals, confidence: float) -> pd.
         columns = columns + Columns(
             names, ("1",) * len(extras), np.column_stack(list(extras.values()))
         )
-    table = inference(columns, fitted.target, fitted.rows, signals, confidence)
+    table, covariance = sandwich(columns, fitted.target, fitted.rows, signals, confidence)
     width = fitted.columns.width
     half = (table["upper"] - table["lower"]).to_numpy() / 2
     value = table["value"].to_numpy().copy()
@@ -305,4 +314,4 @@ def parameters(fitted: StructureFit, signals: Signals, confidence: float) -> pd.
         else:
             bounds = np.array([at, at - half[row], at + half[row]])
         table.loc[row, ["value", "lower", "upper"]] = bounds
-    return table.reset_index(drop=True)
+    return table.reset_index(drop=True), covariance[:width, :width]

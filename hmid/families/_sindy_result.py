@@ -50,6 +50,13 @@ class SINDyResult(FittedModel):
             frame = with_velocity(frame, sequences(data.signals), self.velocity)
         return self.sign * self.force.predict(frame)
 
+    @property
+    def covariance(self) -> np.ndarray:
+        """The selected coefficients' covariance (the intervals' own), in :meth:`structure`'s
+        order: the terms are the selected features, in library order, at their physical
+        coefficients (the slot's sign, common to all, leaves it as it is)."""
+        return self.force.cov_
+
     def structure(self):
         from hmid.balance import Structure
         from hmid.balance.kinds import ChannelTerm, ConstantTerm, SmoothCoulombTerm

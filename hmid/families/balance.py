@@ -23,8 +23,8 @@ from hmid.balance import (
     RigSection,
     Structure,
     TermSpec,
+    estimated,
     make_term,
-    parameters,
     profile,
     sign_findings,
 )
@@ -101,7 +101,7 @@ class BalanceSpec(FamilySpec):
         signals = data.signals.trim(*structure.margins)
         fitted = profile(structure, signals)
         tau_int = residual_tau_int(fitted.residual, signals)
-        table = parameters(fitted, signals, self.confidence)
+        table, covariance = estimated(fitted, signals, self.confidence)
         reads = dict(zip(fitted.columns.names, fitted.columns.reads, strict=True))
         findings = sign_findings(self.name, table, reads, data.rig.position)
         rows = signals.train
@@ -117,7 +117,8 @@ class BalanceSpec(FamilySpec):
         coefficients = table.rename(
             columns={"lower": f"ci_low ({level})", "upper": f"ci_high ({level})"}
         ).drop(columns=["positive"])
-        model = FittedTerms(fitted.structure, fitted.columns.names, fitted.fit.coef.copy())
+        model = FittedTerms(fitted.structure, fitted.columns.names, fitted.fit.coef.copy(),
+                            covariance)  # fmt: skip
         notes = [
             f"least squares on {int(rows.sum())} rows; {100 * self.confidence:g} % intervals "
             "from the residual's autocovariance, the profiled parameters' included; calibrated "

@@ -143,11 +143,13 @@ class FigureSpec:
 @dataclass(frozen=True)
 class FittedTerms(FittedModel):
     """A model that is balance terms at their fitted parameters (``structure``) times
-    coefficients ``coef`` in column order: what a least-squares family fits, ready to use."""
+    coefficients ``coef`` in column order: what a least-squares family fits, ready to use;
+    ``covariance``: the coefficients' (column order), which the model file carries."""
 
     fitted: Structure
     names: tuple[str, ...]
     coef: np.ndarray
+    covariance: np.ndarray | None = None
 
     def predict(self, data: FitData) -> np.ndarray:
         columns = self.fitted.columns(data.signals)

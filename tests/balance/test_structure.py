@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 from _balance_data import signals_with
 
-from hmid.balance import Structure, fit_structure, make_term, parameters, profile
+from hmid.balance import Structure, estimated, fit_structure, make_term, parameters, profile
 from hmid.balance.columns import Columns
+from hmid.balance.inference import sandwich
 from hmid.balance.operations import memory_arms
 from hmid.balance.terms import Term
 
@@ -37,6 +38,21 @@ def test_a_relaxation_time_is_profiled_and_every_parameter_covered():
         assert table.loc[name, "lower"] <= value <= table.loc[name, "upper"], (name, table)
     assert table.loc["tau_k2", "unit"] == "s" and table.loc["k2", "unit"] == "N/m"
     assert np.sqrt(fitted.sse / fitted.fit.n) == pytest.approx(NOISE, rel=0.05)
+
+
+def test_the_coefficients_covariance_is_the_one_the_intervals_read():
+    """What a model file carries for draws of the coefficients: the standard errors of the
+    table on its diagonal, and the profiled relaxation time's trade-off with k2 in it."""
+    signals = _memory_data()
+    fitted = profile(Structure.of([make_term(t) for t in TERMS]), signals)
+    table, cov = estimated(fitted, signals, 0.95)
+    names = list(fitted.columns.names)
+    assert cov.shape == (len(names), len(names)) and np.allclose(cov, cov.T)
+    se = table.set_index("parameter").loc[names, "std. error"].to_numpy()
+    np.testing.assert_allclose(np.sqrt(np.diag(cov)), se, rtol=1e-12)
+    _, fixed = sandwich(fitted.columns, fitted.target, fitted.rows, signals, 0.95)
+    k2 = names.index("k2")
+    assert cov[k2, k2] > 1.05 * fixed[k2, k2]  # 1.13 here: at a fixed tau_k2, k2 looks surer
 
 
 def test_two_profiled_parameters_are_found_by_coordinate_sweeps():

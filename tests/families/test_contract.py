@@ -93,3 +93,32 @@ def test_a_family_that_reads_only_training_targets_never_sees_the_others(family,
     again = spec.fit(FitData(wild, config.rig), FitContext(5, root / family, friction))
     for model, other in zip(fitted, again, strict=True):
         pd.testing.assert_frame_equal(model.coefficients, other.coefficients)
+
+
+def test_a_balance_carries_the_covariance_its_intervals_read(fits):
+    """The model file's covariance (what a free run's band draws the coefficients from), in
+    the columns' order: its diagonal gives the table's standard errors."""
+    _, fitted = fits["balance"]
+    model = fitted[0].model
+    se = fitted[0].coefficients.set_index("parameter")["std. error"]
+    assert model.covariance.shape == (len(model.names),) * 2
+    np.testing.assert_allclose(np.sqrt(np.diag(model.covariance)), se.loc[list(model.names)],
+                               rtol=1e-12)  # fmt: skip
+
+
+@pytest.mark.parametrize("family", sorted(FAMILIES))
+def test_every_model_carries_the_uncertainty_its_band_draws_from(family, fits):
+    """A free run's band draws the coefficients from the posterior where the family has one,
+    else from the model file's covariance: one row and column per term of the structure, with
+    the intervals' own standard errors on its diagonal."""
+    _, fitted = fits[family]
+    for model in fitted:
+        if getattr(model.model, "posterior_draws", None) is not None:
+            continue
+        cov = model.model.covariance
+        n = len(model.model.structure().terms)
+        assert cov.shape == (n, n) and np.allclose(cov, cov.T) and np.all(np.diag(cov) > 0)
+        if family == "sindy":
+            force = model.model.force
+            selected = force.std_err_[force.coef_ != 0]
+            np.testing.assert_allclose(np.sqrt(np.diag(cov)), selected, rtol=1e-12)

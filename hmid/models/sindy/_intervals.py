@@ -42,13 +42,15 @@ SINDY_CALIBRATED_TAU = 35.0
 class Intervals:
     """Standard errors ``(p,)`` and intervals ``(p, 2)`` of every library term (NaN where a
     method gives none), with the residual's correlation (``tau_int`` rows, Sokal's ``window``
-    in lags, None if it outlasts the lags examined) and the t intervals' ``df`` (None: not t)."""
+    in lags, None if it outlasts the lags examined) and the t intervals' ``df`` (None: not t);
+    ``cov``: the selected terms' covariance (support x support, in the design's units)."""
 
     std_err: np.ndarray
     ci: np.ndarray
     tau_int: float
     window: int | None
     df: float | None
+    cov: np.ndarray
 
 
 def support_intervals(
@@ -65,7 +67,7 @@ def support_intervals(
     p = coef.size
     std_err, ci = np.full(p, np.nan), np.full((p, 2), np.nan)
     if support.size == 0:
-        return Intervals(std_err, ci, tau, window, None)
+        return Intervals(std_err, ci, tau, window, None, np.zeros((0, 0)))
     lags = window if window is not None else gamma.size - 1
     cov = autocov_covariance(Z[:, support], gamma[: lags + 1])
     n = y.size
@@ -73,7 +75,7 @@ def support_intervals(
     std_err[support] = np.sqrt(np.diag(cov))
     half = stats.t.ppf(0.5 + confidence / 2, df) * std_err[support]
     ci[support] = np.column_stack([coef[support] - half, coef[support] + half])
-    return Intervals(std_err, ci, tau, window, df)
+    return Intervals(std_err, ci, tau, window, df, cov)
 
 
 def percentile_intervals(ensemble: np.ndarray, confidence: float) -> tuple[np.ndarray, np.ndarray]:

@@ -87,6 +87,7 @@ class SINDyForceModel(ForceModel):
 
     Fitted attributes, in library order: ``coef_`` (0 for terms left out), ``std_err_`` and
     ``ci_`` (n_terms x 2) of the chosen method (NaN for terms left out under ``"autocov"``),
+    ``cov_`` (the selected terms' covariance, of the same method, in physical units),
     ``inclusion_`` and ``ensemble_coef_`` (the bootstrap), ``tau_int_`` and ``acf_window_``
     (the selected model's residual correlation), ``df_`` (of the t intervals; None for
     ``"bootstrap"``), ``threshold_``, ``path_``, ``choice_`` (the candidate supports; None for
@@ -269,14 +270,19 @@ class SINDyForceModel(ForceModel):
         correlation (reported for either method: a diagnostic of the fit)."""
         post = support_intervals(Z, z, xi, self.confidence)
         self.tau_int_, self.acf_window_ = post.tau_int, post.window
+        support = np.flatnonzero(xi)
         if self.intervals == "autocov":
             scale = np.abs(to_physical)
             self.std_err_ = post.std_err * scale
             self.ci_ = np.sort(post.ci * to_physical[:, None], axis=1)
             self.df_ = post.df
+            self.cov_ = post.cov * np.outer(to_physical[support], to_physical[support])
         else:
             self.std_err_, self.ci_ = percentile_intervals(self.ensemble_coef_, self.confidence)
             self.df_ = None
+            picked = self.ensemble_coef_[:, support]
+            self.cov_ = (np.cov(picked, rowvar=False).reshape(support.size, support.size)
+                         if support.size else np.zeros((0, 0)))  # fmt: skip
 
     def _warnings(self, n_params: int) -> list[str]:
         """What the fit says about itself: rows left out, columns dropped, doubtful support,

@@ -126,6 +126,8 @@ def test_bootstrap_option_gives_the_ensembles_percentile_intervals(truth):
     np.testing.assert_allclose(boot.ci_, np.column_stack([low, high]))
     assert (boot.coefficient_table()["interval"] == "95 % blocked-bootstrap percentile").all()
     assert "percentile intervals" in boot.interval_method() and boot.df_ is None
+    on = boot.coef_ != 0  # the covariance a model file carries: the same method's
+    np.testing.assert_allclose(np.sqrt(np.diag(boot.cov_)), boot.std_err_[on], rtol=1e-12)
 
 
 def test_interval_method_errors_are_named():
