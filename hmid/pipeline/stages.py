@@ -518,7 +518,8 @@ def _free_runs(config: ExperimentConfig, freerun_blocks: FreeRunBlocks, fit: lis
 #: Draws of a model's coefficients (each with its own disturbance) behind its free run's band,
 #: and the band's level. 14, not 20: the band's scale is calibrated for the draws it has, and
 #: over simulated data sets 14 cover as 20 do (the demo's SLS 91.7 against 91.3 %, the linear
-#: stage 88.1 ± 1.8 against 89.6 ± 1.6), at two thirds of the runs: the free run then costs
+#: stage 88.1 ± 1.8 against 89.6 ± 1.6, paired, before its file carried the coefficients'
+#: covariance: 89.1 ± 1.4 since), at two thirds of the runs: the free run then costs
 #: the demo 9 % of its time, not 15 % (benchmarks/README.md, 2026-11-28 02:20)
 FREE_RUN_DRAWS, FREE_RUN_LEVEL = 14, 0.9
 
